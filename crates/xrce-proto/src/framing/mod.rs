@@ -1,0 +1,1 @@
+//! Byte-stream and datagram framings that carry XRCE messages.
