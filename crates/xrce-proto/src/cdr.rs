@@ -335,6 +335,16 @@ impl<'b> Writer<'b> {
         self.pos
     }
 
+    /// Index of the alignment origin.
+    pub const fn origin(&self) -> usize {
+        self.origin
+    }
+
+    /// Bytes written so far (only those that fitted).
+    pub fn written(&self) -> &[u8] {
+        self.buf.get(..self.pos).unwrap_or(self.buf)
+    }
+
     /// Whether everything written so far fitted.
     pub fn fits(&self) -> bool {
         self.error.is_none() && self.pos <= self.buf.len()
@@ -438,6 +448,17 @@ impl<'b> Writer<'b> {
     /// Encodes a value.
     pub fn write<T: Encode + ?Sized>(&mut self, v: &T) {
         v.encode(self);
+    }
+
+    /// Overwrites four bytes at `at` with `v` in the writer's byte order (patches a length written before its data).
+    pub fn patch_u32(&mut self, at: usize, v: u32) {
+        let bytes = match self.endian {
+            Endianness::Little => v.to_le_bytes(),
+            Endianness::Big => v.to_be_bytes(),
+        };
+        if let Some(dst) = self.buf.get_mut(at..at.saturating_add(4)) {
+            dst.copy_from_slice(&bytes);
+        }
     }
 
     /// Overwrites two bytes at `at` with `v` little endian (used to patch lengths after the fact).

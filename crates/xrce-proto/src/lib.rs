@@ -15,3 +15,17 @@
 
 pub mod cdr;
 pub mod framing;
+pub mod header;
+pub mod message;
+pub mod object;
+pub mod submessage;
+pub mod types;
+
+pub use cdr::Endianness;
+pub use header::MessageHeader;
+pub use message::{MessageBuilder, RawSubmessage, Submessages};
+pub use object::{EntityVariant, ObjectVariant, Representation};
+pub use submessage::{Submessage, SubmessageHeader};
+pub use types::*;
+#[cfg(feature = "serde")]
+pub mod serde_cdr;

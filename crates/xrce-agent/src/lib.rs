@@ -1,0 +1,1 @@
+//! DDS-XRCE agent library.

@@ -1,0 +1,2 @@
+//! DDS-XRCE client.
+#![cfg_attr(not(feature = "std"), no_std)]

@@ -1,0 +1,341 @@
+//! Payload types of the submessages (spec §6).
+
+use crate::cdr::{Decode, Encode, Error, Reader, Result, Seq, Writer};
+use crate::object::{AgentRepresentation, ObjectVariant};
+use crate::types::{
+    codec_struct, BaseObjectReply, BaseObjectRequest, ResultStatus, SampleIdentity, Time, TransportLocator,
+};
+
+/// STATUS_AGENT: the answer to CREATE_CLIENT.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StatusAgent<'a> {
+    /// Outcome; the client reads only this.
+    pub result: ResultStatus,
+    /// The agent's representation.
+    pub agent: AgentRepresentation<'a>,
+}
+
+impl<'a> Decode<'a> for StatusAgent<'a> {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Ok(Self { result: r.read()?, agent: r.read()? })
+    }
+}
+
+impl Encode for StatusAgent<'_> {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.result.encode(w);
+        self.agent.encode(w);
+    }
+}
+
+/// Creation mode carried by the CREATE flags (spec §11).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CreationMode {
+    /// Keep an existing object that matches.
+    pub reuse: bool,
+    /// Replace an existing object.
+    pub replace: bool,
+}
+
+impl CreationMode {
+    /// REUSE flag bit.
+    pub const REUSE_FLAG: u8 = 0x02;
+    /// REPLACE flag bit.
+    pub const REPLACE_FLAG: u8 = 0x04;
+
+    /// Mode from submessage flags.
+    pub const fn from_flags(flags: u8) -> Self {
+        Self { reuse: flags & Self::REUSE_FLAG != 0, replace: flags & Self::REPLACE_FLAG != 0 }
+    }
+
+    /// Flag bits of the mode.
+    pub const fn flags(self) -> u8 {
+        (if self.reuse { Self::REUSE_FLAG } else { 0 }) | (if self.replace { Self::REPLACE_FLAG } else { 0 })
+    }
+}
+
+/// CREATE: object to create and how.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Create<'a> {
+    /// Request id and id of the object to create.
+    pub request: BaseObjectRequest,
+    /// REUSE / REPLACE (in the flags on the wire).
+    pub mode: CreationMode,
+    /// What to create.
+    pub variant: ObjectVariant<'a>,
+}
+
+/// GET_INFO bits.
+pub mod info_mask {
+    /// INFO_CONFIGURATION.
+    pub const CONFIGURATION: u32 = 0x01;
+    /// INFO_ACTIVITY.
+    pub const ACTIVITY: u32 = 0x02;
+}
+
+/// GET_INFO: ping, discovery, liveliness probe.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GetInfo {
+    /// Request id and object.
+    pub request: BaseObjectRequest,
+    /// [`info_mask`] bits (ignored by eProsima's agent).
+    pub info_mask: u32,
+}
+codec_struct!(GetInfo { request: BaseObjectRequest, info_mask: u32 });
+
+/// Activity part of an INFO.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ActivityInfo<'a> {
+    /// The agent's activity: availability and where it listens.
+    Agent {
+        /// Greater than 0 when available.
+        availability: i16,
+        /// Locators (empty when answered on the normal transport).
+        address_seq: Seq<'a, TransportLocator<'a>>,
+    },
+    /// A writer's activity (defined, never sent by eProsima).
+    DataWriter {
+        /// Stream sequence number.
+        stream_seq_num: i16,
+        /// Sample sequence number.
+        sample_seq_num: u64,
+    },
+    /// A reader's activity (defined, never sent by eProsima).
+    DataReader {
+        /// Highest acknowledged number.
+        highest_acked_num: i16,
+    },
+}
+
+impl<'a> Decode<'a> for ActivityInfo<'a> {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        match r.read_u8()? {
+            0x0D => Ok(Self::Agent { availability: r.read_i16()?, address_seq: r.read()? }),
+            0x05 => Ok(Self::DataWriter { stream_seq_num: r.read_i16()?, sample_seq_num: r.read_u64()? }),
+            0x06 => Ok(Self::DataReader { highest_acked_num: r.read_i16()? }),
+            other => Err(Error::InvalidDiscriminator(other)),
+        }
+    }
+}
+
+impl Encode for ActivityInfo<'_> {
+    fn encode(&self, w: &mut Writer<'_>) {
+        match self {
+            Self::Agent { availability, address_seq } => {
+                w.write_u8(0x0D);
+                w.write_i16(*availability);
+                address_seq.encode(w);
+            }
+            Self::DataWriter { stream_seq_num, sample_seq_num } => {
+                w.write_u8(0x05);
+                w.write_i16(*stream_seq_num);
+                w.write_u64(*sample_seq_num);
+            }
+            Self::DataReader { highest_acked_num } => {
+                w.write_u8(0x06);
+                w.write_i16(*highest_acked_num);
+            }
+        }
+    }
+}
+
+/// INFO: answer to GET_INFO.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Info<'a> {
+    /// Related request and result (implementation status 1: the agent knows the session).
+    pub reply: BaseObjectReply,
+    /// Configuration (the agent's representation).
+    pub config: Option<ObjectVariant<'a>>,
+    /// Activity.
+    pub activity: Option<ActivityInfo<'a>>,
+}
+
+impl<'a> Decode<'a> for Info<'a> {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Ok(Self { reply: r.read()?, config: r.read_optional(|r| r.read())?, activity: r.read_optional(|r| r.read())? })
+    }
+}
+
+impl Encode for Info<'_> {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.reply.encode(w);
+        w.write_optional(self.config.as_ref(), |w, c| c.encode(w));
+        w.write_optional(self.activity.as_ref(), |w, a| a.encode(w));
+    }
+}
+
+/// Data formats carried in WRITE_DATA/DATA flags (mask 0x0E).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DataFormat(pub u8);
+
+impl DataFormat {
+    /// Raw sample bytes: the only format both eProsima sides implement.
+    pub const DATA: Self = Self(0x00);
+    /// FORMAT_SAMPLE.
+    pub const SAMPLE: Self = Self(0x02);
+    /// FORMAT_DATA_SEQ.
+    pub const DATA_SEQ: Self = Self(0x08);
+    /// FORMAT_SAMPLE_SEQ.
+    pub const SAMPLE_SEQ: Self = Self(0x0A);
+    /// FORMAT_PACKED_SAMPLES.
+    pub const PACKED_SAMPLES: Self = Self(0x0E);
+    /// Mask of the format bits in the flags.
+    pub const MASK: u8 = 0x0E;
+
+    /// Format from submessage flags.
+    pub const fn from_flags(flags: u8) -> Self {
+        Self(flags & Self::MASK)
+    }
+}
+
+/// WRITE_DATA (client → agent) or DATA (agent → client) in any format; the data is kept raw.
+///
+/// FORMAT_DATA to a datawriter/datareader: the serialized sample. Requester reply DATA starts with a
+/// `BaseObjectRequest`; replier DATA and replier WRITE_DATA start with a [`SampleIdentity`] (spec §6.8).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DataPayload<'a> {
+    /// Request id and object (writer/reader/requester/replier).
+    pub request: BaseObjectRequest,
+    /// Format bits.
+    pub format: DataFormat,
+    /// Bytes after the 4-byte prefix.
+    pub data: &'a [u8],
+}
+
+impl<'a> DataPayload<'a> {
+    /// Splits a leading [`SampleIdentity`] off the data (replier traffic).
+    pub fn split_sample_identity(&self) -> Result<(SampleIdentity, &'a [u8])> {
+        let mut r = Reader::new(self.data, crate::cdr::Endianness::Little);
+        let identity = SampleIdentity::decode(&mut r)?;
+        Ok((identity, r.rest()))
+    }
+
+    /// Splits a leading [`BaseObjectRequest`] off the data (requester reply DATA).
+    pub fn split_base_request(&self) -> Result<(BaseObjectRequest, &'a [u8])> {
+        let mut r = Reader::new(self.data, crate::cdr::Endianness::Little);
+        let base = BaseObjectRequest::decode(&mut r)?;
+        Ok((base, r.rest()))
+    }
+}
+
+/// DataDeliveryControl (spec §15.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct DataDeliveryControl {
+    /// Samples to deliver; `0xFFFF` is unlimited.
+    pub max_samples: u16,
+    /// Seconds the delivery lasts; 0 is unlimited.
+    pub max_elapsed_time: u16,
+    /// Rate limit; 0 is unlimited.
+    pub max_bytes_per_second: u16,
+    /// Minimum milliseconds between samples (ignored by eProsima; honoured by us).
+    pub min_pace_period: u16,
+}
+
+impl DataDeliveryControl {
+    /// `max_samples` meaning "no limit".
+    pub const UNLIMITED: u16 = 0xFFFF;
+}
+codec_struct!(DataDeliveryControl {
+    max_samples: u16,
+    max_elapsed_time: u16,
+    max_bytes_per_second: u16,
+    min_pace_period: u16
+});
+
+/// ReadSpecification of a READ_DATA.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ReadSpecification<'a> {
+    /// Stream the DATA should travel on; 0 with an all-zero control means "cancel".
+    pub preferred_stream_id: u8,
+    /// Requested format (only FORMAT_DATA is honoured).
+    pub data_format: u8,
+    /// Content filter (parsed, ignored by eProsima).
+    pub content_filter_expression: Option<&'a str>,
+    /// Delivery control; absent means one sample.
+    pub delivery_control: Option<DataDeliveryControl>,
+}
+
+impl<'a> Decode<'a> for ReadSpecification<'a> {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Ok(Self {
+            preferred_stream_id: r.read_u8()?,
+            data_format: r.read_u8()?,
+            content_filter_expression: r.read_optional(|r| r.read_string())?,
+            delivery_control: r.read_optional(|r| r.read())?,
+        })
+    }
+}
+
+impl Encode for ReadSpecification<'_> {
+    fn encode(&self, w: &mut Writer<'_>) {
+        w.write_u8(self.preferred_stream_id);
+        w.write_u8(self.data_format);
+        w.write_optional(self.content_filter_expression.as_ref(), |w, s| w.write_string(s));
+        w.write_optional(self.delivery_control.as_ref(), |w, c| c.encode(w));
+    }
+}
+
+/// READ_DATA.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReadData<'a> {
+    /// Request id and reader/requester/replier.
+    pub request: BaseObjectRequest,
+    /// What to read and how.
+    pub spec: ReadSpecification<'a>,
+}
+
+impl<'a> Decode<'a> for ReadData<'a> {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Ok(Self { request: r.read()?, spec: r.read()? })
+    }
+}
+
+impl Encode for ReadData<'_> {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.request.encode(w);
+        self.spec.encode(w);
+    }
+}
+
+/// ACKNACK for a reliable stream (5 bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct AckNack {
+    /// First sequence number not received.
+    pub first_unacked_seq_num: u16,
+    /// Bit i of the big-endian u16 ↔ `first_unacked + i` missing.
+    pub nack_bitmap: [u8; 2],
+    /// The reliable stream acknowledged, as numbered by its sender.
+    pub stream_id: u8,
+}
+codec_struct!(AckNack { first_unacked_seq_num: u16, nack_bitmap: [u8; 2], stream_id: u8 });
+
+impl AckNack {
+    /// The bitmap as a u16 whose bit i ↔ `first_unacked + i`.
+    pub const fn bitmap(&self) -> u16 {
+        u16::from_be_bytes(self.nack_bitmap)
+    }
+}
+
+/// HEARTBEAT for a reliable stream (5 bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct Heartbeat {
+    /// Oldest sequence number still held.
+    pub first_unacked_seq_nr: u16,
+    /// Newest sequence number sent.
+    pub last_unacked_seq_nr: u16,
+    /// The sender's reliable output stream.
+    pub stream_id: u8,
+}
+codec_struct!(Heartbeat { first_unacked_seq_nr: u16, last_unacked_seq_nr: u16, stream_id: u8 });
+
+/// TIMESTAMP_REPLY (24 bytes, in this order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct TimestampReply {
+    /// Agent clock when replying.
+    pub transmit_timestamp: Time,
+    /// Agent clock when the TIMESTAMP was processed.
+    pub receive_timestamp: Time,
+    /// The client's transmit timestamp, echoed.
+    pub originate_timestamp: Time,
+}
+codec_struct!(TimestampReply { transmit_timestamp: Time, receive_timestamp: Time, originate_timestamp: Time });
