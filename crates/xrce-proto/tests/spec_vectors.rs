@@ -135,8 +135,7 @@ const HELLO: &[u8] = b"\x01\x00\x00\x00\x11\x00\x00\x00Hello DDS world!\x00";
 
 #[test]
 fn v17_5_write_data_and_data() {
-    let write =
-        Submessage::WriteData(DataPayload { request: req(11, 0x0015), format: DataFormat::DATA, data: HELLO });
+    let write = Submessage::WriteData(DataPayload { request: req(11, 0x0015), format: DataFormat::DATA, data: HELLO });
     // Our encoder adds no trailing padding: the C client's 3 padding bytes are not part of the message proper.
     let c_client = "81 01 00 00 07 01 1D 00 00 0B 00 15 01 00 00 00 11 00 00 00 \
                     48 65 6C 6C 6F 20 44 44 53 20 77 6F 72 6C 64 21 00";

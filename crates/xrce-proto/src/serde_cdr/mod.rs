@@ -54,7 +54,8 @@
 //!
 //! * `Option<T>` is *not* IDL `@optional` (that needs XCDR2 or parameter lists); it follows the convention of the
 //!   XRCE protocol types (`boolean` presence flag followed by the value) so that both ends written with this
-//!   module agree. A C peer must declare the member as `boolean has_x; T x;` (the `T` only sent when present).
+//!   module agree. A C peer needs hand-written code for such a member (write the flag, then the value only when
+//!   the flag is true); eProsima's generator has no such mapping for XCDR v1.
 //! * `char` is IDL `char`, an 8-bit ISO 8859-1 character: Rust chars `U+0000`–`U+00FF` are written as one byte,
 //!   any other char is refused with [`Error::Unsupported`]; every byte decodes to the char of the same value.
 //! * An enum is written with its *variant index* (0, 1, 2… in declaration order), which is what IDL enums and
