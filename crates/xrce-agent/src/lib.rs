@@ -1,1 +1,10 @@
-//! DDS-XRCE agent library.
+//! DDS-XRCE agent library: a drop-in replacement for eProsima's `MicroXRCEAgent`.
+//!
+//! * [`core`]: the sans-IO agent core (sessions, streams, objects, read tasks).
+//! * [`middleware`]: the `Middleware` trait and the CED middleware.
+//! * [`transport`]: UDP and TCP shells around the core.
+//! * [`agent`]: the library API of eProsima's agent (`Agent`, `AgentInstance`).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
+
+pub mod core;
+pub mod middleware;

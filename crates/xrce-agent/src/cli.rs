@@ -1,0 +1,830 @@
+//! The `MicroXRCEAgent`-compatible command line.
+//!
+//! The agent must be a drop-in replacement for eProsima's `MicroXRCEAgent`, so scripts, launch files and
+//! service units written for it have to keep working: the first argument names the transport
+//! (`udp4 udp6 tcp4 tcp6 serial multiserial pseudoterminal canfd`), every option keeps eProsima's short and
+//! long spelling, meaning and default, and short options accept attached values (`-v6`, `-p8888`).
+//!
+//! Facts taken from eProsima's agent (v2.x/v3.x argument parser), which this module reproduces:
+//! * `-v/--verbose` defaults to level 4 (info) even when absent; a bare `-v` also means 4; 0..=6 only.
+//! * `-d/--discovery` is off unless given; a bare `-d` listens on port 7400.
+//! * `-P/--p2p` needs a port; `-p/--port` is mandatory for the IP transports.
+//! * `-m/--middleware` is one of `ced`, `dds`, `rtps`, default `dds`.
+//! * `-r/--refs` must name an existing file (checked while parsing, as eProsima does).
+//! * `-b/--baudrate` defaults to 115200; eProsima also accepts non-standard numeric rates.
+//! * `serial` takes its device from `-D/--dev`, or from the first line of the file given with `-f/--file`;
+//!   `multiserial` takes a space-separated list in one `-D/--devs` argument, or one device per line of
+//!   `-f/--file`. The two sources are mutually exclusive and one is required. `-f` is this device file,
+//!   not a configuration file: eProsima has no file of command-line arguments (its "config file" is the
+//!   `-r` refs file of XML profiles).
+//! * `canfd` needs `-D/--dev` (the SocketCAN interface) and takes `-I/--id`, a CAN id in hexadecimal with or
+//!   without `0x`, default `0x00000001` (eProsima v3.0.1 parses it but does not use it).
+//!
+//! Deliberate differences: unknown options are rejected (eProsima silently ignores them), numeric values
+//! out of range are rejected instead of wrapping, a repeated option keeps its last value (eProsima keeps the
+//! first), and non-numeric baud rates are rejected (eProsima turns them into 0, which hangs up the line).
+
+use std::ffi::OsString;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use clap::error::ErrorKind;
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
+use tracing::level_filters::LevelFilter;
+
+/// eProsima's default verbosity (info), applied when `-v` is absent or given without a value.
+pub const DEFAULT_VERBOSITY: u8 = 4;
+/// Highest verbosity: everything, including a hex dump of every message.
+pub const MAX_VERBOSITY: u8 = 6;
+/// UDP port of the discovery server when `-d` is given without a value.
+pub const DEFAULT_DISCOVERY_PORT: u16 = 7400;
+/// Serial line speed when `-b` is absent.
+pub const DEFAULT_BAUDRATE: u32 = 115_200;
+/// CAN identifier when `-I` is absent (eProsima's `0x00000001`).
+pub const DEFAULT_CAN_ID: u32 = 0x0000_0001;
+/// Largest identifier of a 29-bit extended CAN frame.
+pub const MAX_CAN_ID: u32 = 0x1FFF_FFFF;
+/// Largest `-f/--file` device list read; it names a few devices, so anything bigger is a mistake.
+pub const MAX_DEVICE_FILE_LEN: u64 = 64 * 1024;
+
+/// Everything the command line selects, ready for the agent to start.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Config {
+    /// Transport and its own parameters.
+    pub transport: Transport,
+    /// Middleware the agent hands entities to.
+    pub middleware: MiddlewareKind,
+    /// Fast DDS XML profiles file for entities created by reference (`-r`).
+    pub refs: Option<PathBuf>,
+    /// eProsima verbosity level 0..=6 (see [`Config::log_level_filter`]).
+    pub verbosity: u8,
+    /// Port of the agent discovery server, if enabled (`-d`).
+    pub discovery: Option<u16>,
+    /// Port for P2P agent discovery, if enabled (`-P`).
+    pub p2p: Option<u16>,
+}
+
+impl Config {
+    /// The `tracing` filter for [`Config::verbosity`]: eProsima's levels are off, critical, error, warning,
+    /// info, debug, trace; `tracing` has no critical level, so 1 and 2 both show errors only.
+    pub fn log_level_filter(&self) -> LevelFilter {
+        verbosity_to_filter(self.verbosity)
+    }
+}
+
+/// Maps an eProsima verbosity level to a `tracing` filter (levels above 6 count as 6).
+pub fn verbosity_to_filter(level: u8) -> LevelFilter {
+    match level {
+        0 => LevelFilter::OFF,
+        1 | 2 => LevelFilter::ERROR,
+        3 => LevelFilter::WARN,
+        4 => LevelFilter::INFO,
+        5 => LevelFilter::DEBUG,
+        _ => LevelFilter::TRACE,
+    }
+}
+
+/// The transport subcommand with its parameters.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Transport {
+    /// UDP over IPv4.
+    Udp4 {
+        /// Local port to listen on.
+        port: u16,
+    },
+    /// UDP over IPv6.
+    Udp6 {
+        /// Local port to listen on.
+        port: u16,
+    },
+    /// TCP over IPv4.
+    Tcp4 {
+        /// Local port to listen on.
+        port: u16,
+    },
+    /// TCP over IPv6.
+    Tcp6 {
+        /// Local port to listen on.
+        port: u16,
+    },
+    /// One serial device.
+    Serial {
+        /// Device path (from `-D`, or the first line of the `-f` file).
+        device: String,
+        /// Line speed in baud.
+        baudrate: u32,
+    },
+    /// Several serial devices served by one agent.
+    MultiSerial {
+        /// Device paths (from `--devs`, or the lines of the `-f` file); never empty.
+        devices: Vec<String>,
+        /// Line speed in baud, shared by all devices.
+        baudrate: u32,
+    },
+    /// A pseudoterminal the agent creates (its path is printed at start).
+    PseudoTerminal {
+        /// Line speed in baud.
+        baudrate: u32,
+    },
+    /// CAN FD over Linux SocketCAN.
+    CanFd {
+        /// SocketCAN interface name, e.g. `can0`.
+        device: String,
+        /// CAN identifier (29-bit).
+        can_id: u32,
+    },
+}
+
+impl Transport {
+    /// The subcommand name, as typed on the command line (for messages such as "not implemented yet").
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Udp4 { .. } => "udp4",
+            Self::Udp6 { .. } => "udp6",
+            Self::Tcp4 { .. } => "tcp4",
+            Self::Tcp6 { .. } => "tcp6",
+            Self::Serial { .. } => "serial",
+            Self::MultiSerial { .. } => "multiserial",
+            Self::PseudoTerminal { .. } => "pseudoterminal",
+            Self::CanFd { .. } => "canfd",
+        }
+    }
+
+    /// The listening port of the IP transports.
+    pub fn port(&self) -> Option<u16> {
+        match self {
+            Self::Udp4 { port } | Self::Udp6 { port } | Self::Tcp4 { port } | Self::Tcp6 { port } => Some(*port),
+            _ => None,
+        }
+    }
+}
+
+/// Middleware selected with `-m/--middleware`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, ValueEnum)]
+pub enum MiddlewareKind {
+    /// Centralized data: in-agent routing between clients, no DDS.
+    Ced,
+    /// Real DDS (eProsima's default, Fast DDS there).
+    Dds,
+    /// Legacy Fast RTPS middleware name; accepted by eProsima's parser, no longer implemented there.
+    Rtps,
+}
+
+impl MiddlewareKind {
+    /// The name used on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ced => "ced",
+            Self::Dds => "dds",
+            Self::Rtps => "rtps",
+        }
+    }
+}
+
+/// Summary printed after the top-level help, so `--help` alone lists every option of every transport
+/// (eProsima's help has the same per-transport layout).
+const ALL_ARGUMENTS: &str = "\
+Arguments per transport (place them after the transport):
+  * COMMON (every transport)
+      -h/--help                     print help
+      -m/--middleware <ced|dds|rtps>  middleware [default: dds]
+      -r/--refs <FILE>              Fast DDS XML profiles for entities created by reference
+      -v/--verbose [0-6]            log level: 0 off .. 6 trace with hex dumps [default: 4, bare -v: 4]
+      -d/--discovery [PORT]         answer agent discovery requests [bare -d: 7400]
+      -P/--p2p <PORT>               P2P discovery of other agents (CED middleware)
+  * IPvX (udp4, udp6, tcp4, tcp6)
+      -p/--port <PORT>              local port (required)
+  * SERIAL (serial, multiserial, pseudoterminal)
+      -b/--baudrate <BAUD>          line speed [default: 115200]
+      -D/--dev <DEVICE>             serial: device path
+      -D/--devs \"<DEVICE> ...\"      multiserial: space-separated device paths in one argument
+      -f/--file <FILE>              serial: device path on the first line; multiserial: one per line
+  * CAN FD (canfd)
+      -D/--dev <INTERFACE>          SocketCAN interface (required)
+      -I/--id <HEX>                 CAN identifier [default: 0x00000001]
+
+Example: xrce-agent udp4 -p 8888 -m ced -v6";
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "xrce-agent",
+    about = "DDS-XRCE agent, a drop-in replacement for eProsima's MicroXRCEAgent",
+    subcommand_required = true,
+    arg_required_else_help = true,
+    args_override_self = true,
+    after_help = ALL_ARGUMENTS
+)]
+struct Cli {
+    #[command(subcommand)]
+    transport: TransportCommand,
+}
+
+#[derive(Debug, Subcommand)]
+enum TransportCommand {
+    /// UDP over IPv4.
+    Udp4(IpArgs),
+    /// UDP over IPv6.
+    Udp6(IpArgs),
+    /// TCP over IPv4.
+    Tcp4(IpArgs),
+    /// TCP over IPv6.
+    Tcp6(IpArgs),
+    /// One serial device.
+    Serial(SerialArgs),
+    /// Several serial devices.
+    Multiserial(MultiSerialArgs),
+    /// A pseudoterminal created by the agent.
+    Pseudoterminal(PseudoTerminalArgs),
+    /// CAN FD over SocketCAN.
+    Canfd(CanArgs),
+}
+
+/// Options every transport takes.
+#[derive(Debug, Args)]
+struct CommonArgs {
+    /// Middleware.
+    #[arg(short = 'm', long, value_enum, default_value_t = MiddlewareKind::Dds)]
+    middleware: MiddlewareKind,
+
+    /// Fast DDS XML profiles file for entities created by reference (must exist).
+    #[arg(short = 'r', long, value_name = "FILE", value_parser = existing_file)]
+    refs: Option<PathBuf>,
+
+    /// Log level 0 (off) ..= 6 (trace, with a hex dump of every message); bare -v means 4.
+    #[arg(
+        short = 'v',
+        long,
+        value_name = "LEVEL",
+        num_args = 0..=1,
+        default_value_t = DEFAULT_VERBOSITY,
+        default_missing_value = "4",
+        value_parser = clap::value_parser!(u8).range(0..=i64::from(MAX_VERBOSITY))
+    )]
+    verbose: u8,
+
+    /// Answer agent discovery requests on this UDP port (bare -d: 7400).
+    #[arg(short = 'd', long, value_name = "PORT", num_args = 0..=1, default_missing_value = "7400")]
+    discovery: Option<u16>,
+
+    /// Discover other agents and bridge topics with them through this UDP port (CED middleware).
+    #[arg(short = 'P', long, value_name = "PORT")]
+    p2p: Option<u16>,
+}
+
+#[derive(Debug, Args)]
+struct IpArgs {
+    /// Local port.
+    #[arg(short = 'p', long, value_name = "PORT")]
+    port: u16,
+
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+#[derive(Debug, Args)]
+struct SerialArgs {
+    /// Serial device path.
+    #[arg(
+        short = 'D',
+        long = "dev",
+        value_name = "DEVICE",
+        required_unless_present = "file",
+        conflicts_with = "file"
+    )]
+    dev: Option<String>,
+
+    /// File whose first line is the serial device path.
+    #[arg(short = 'f', long, value_name = "FILE")]
+    file: Option<PathBuf>,
+
+    /// Line speed in baud.
+    #[arg(short = 'b', long, value_name = "BAUD", default_value_t = DEFAULT_BAUDRATE)]
+    baudrate: u32,
+
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+#[derive(Debug, Args)]
+struct MultiSerialArgs {
+    /// Serial device paths, space-separated in one argument.
+    #[arg(
+        short = 'D',
+        long = "devs",
+        value_name = "DEVICES",
+        required_unless_present = "file",
+        conflicts_with = "file"
+    )]
+    devs: Option<String>,
+
+    /// File with one serial device path per line.
+    #[arg(short = 'f', long, value_name = "FILE")]
+    file: Option<PathBuf>,
+
+    /// Line speed in baud.
+    #[arg(short = 'b', long, value_name = "BAUD", default_value_t = DEFAULT_BAUDRATE)]
+    baudrate: u32,
+
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+#[derive(Debug, Args)]
+struct PseudoTerminalArgs {
+    /// Line speed in baud.
+    #[arg(short = 'b', long, value_name = "BAUD", default_value_t = DEFAULT_BAUDRATE)]
+    baudrate: u32,
+
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+#[derive(Debug, Args)]
+struct CanArgs {
+    /// SocketCAN interface, e.g. can0.
+    #[arg(short = 'D', long = "dev", value_name = "INTERFACE")]
+    dev: String,
+
+    /// CAN identifier in hexadecimal, with or without 0x.
+    #[arg(short = 'I', long = "id", value_name = "HEX", default_value = "0x00000001", value_parser = parse_can_id)]
+    id: u32,
+
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+/// The clap command, for `--help` rendering, shell completions or man pages.
+pub fn command() -> clap::Command {
+    Cli::command()
+}
+
+/// Parses a full command line (`args[0]` is the program name) into a [`Config`].
+///
+/// Errors are clap errors so the caller can simply `err.exit()`: `--help` comes back as an error of kind
+/// [`ErrorKind::DisplayHelp`] whose text is the help. Besides parsing, this checks the files eProsima checks
+/// while parsing: `-r` must exist, and a `-f` device file is read (at most [`MAX_DEVICE_FILE_LEN`] bytes)
+/// and must name at least one device.
+pub fn parse_from<I, T>(args: I) -> Result<Config, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let mut cmd = Cli::command();
+    let matches = cmd.try_get_matches_from_mut(args)?;
+    let cli = Cli::from_arg_matches(&matches).map_err(|e| e.format(&mut cmd))?;
+    cli.into_config().map_err(|e| e.format(&mut cmd))
+}
+
+impl Cli {
+    fn into_config(self) -> Result<Config, clap::Error> {
+        let (transport, common) = match self.transport {
+            TransportCommand::Udp4(a) => (Transport::Udp4 { port: a.port }, a.common),
+            TransportCommand::Udp6(a) => (Transport::Udp6 { port: a.port }, a.common),
+            TransportCommand::Tcp4(a) => (Transport::Tcp4 { port: a.port }, a.common),
+            TransportCommand::Tcp6(a) => (Transport::Tcp6 { port: a.port }, a.common),
+            TransportCommand::Serial(a) => {
+                let device = match (a.dev, a.file) {
+                    (Some(dev), _) => dev,
+                    (None, Some(file)) => first_device(&read_device_file(&file)?, &file)?,
+                    (None, None) => return Err(missing("--dev <DEVICE> or --file <FILE>")),
+                };
+                (Transport::Serial { device, baudrate: a.baudrate }, a.common)
+            }
+            TransportCommand::Multiserial(a) => {
+                let devices = match (a.devs, a.file) {
+                    (Some(devs), _) => {
+                        let devices: Vec<String> = devs.split_whitespace().map(str::to_owned).collect();
+                        if devices.is_empty() {
+                            return Err(clap::Error::raw(
+                                ErrorKind::InvalidValue,
+                                "--devs needs at least one device path\n",
+                            ));
+                        }
+                        devices
+                    }
+                    (None, Some(file)) => all_devices(&read_device_file(&file)?, &file)?,
+                    (None, None) => return Err(missing("--devs <DEVICES> or --file <FILE>")),
+                };
+                (Transport::MultiSerial { devices, baudrate: a.baudrate }, a.common)
+            }
+            TransportCommand::Pseudoterminal(a) => (Transport::PseudoTerminal { baudrate: a.baudrate }, a.common),
+            TransportCommand::Canfd(a) => (Transport::CanFd { device: a.dev, can_id: a.id }, a.common),
+        };
+        Ok(Config {
+            transport,
+            middleware: common.middleware,
+            refs: common.refs,
+            verbosity: common.verbose,
+            discovery: common.discovery,
+            p2p: common.p2p,
+        })
+    }
+}
+
+fn missing(what: &str) -> clap::Error {
+    clap::Error::raw(ErrorKind::MissingRequiredArgument, format!("{what} is required\n"))
+}
+
+/// `-r` value parser: the refs file must exist when the agent starts, as eProsima checks.
+fn existing_file(value: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(value);
+    if path.is_file() {
+        Ok(path)
+    } else {
+        Err(format!("reference file '{value}' does not exist"))
+    }
+}
+
+/// `-I` value parser: hexadecimal like C's `strtoul(s, NULL, 16)` (optional `0x`), limited to 29 bits.
+fn parse_can_id(value: &str) -> Result<u32, String> {
+    let trimmed = value.trim();
+    let digits = trimmed
+        .strip_prefix("0x")
+        .or_else(|| trimmed.strip_prefix("0X"))
+        .unwrap_or(trimmed);
+    let id = u32::from_str_radix(digits, 16).map_err(|_| format!("'{value}' is not a hexadecimal CAN id"))?;
+    if digits.starts_with('+') || id > MAX_CAN_ID {
+        return Err(format!("CAN id '{value}' is not a 29-bit hexadecimal id (0 ..= 0x{MAX_CAN_ID:X})"));
+    }
+    Ok(id)
+}
+
+/// Reads a `-f/--file` device list, bounded by [`MAX_DEVICE_FILE_LEN`].
+fn read_device_file(path: &Path) -> Result<String, clap::Error> {
+    let io_error = |e: std::io::Error| {
+        clap::Error::raw(ErrorKind::Io, format!("cannot read device file '{}': {e}\n", path.display()))
+    };
+    let file = std::fs::File::open(path).map_err(io_error)?;
+    let mut text = String::new();
+    file.take(MAX_DEVICE_FILE_LEN + 1).read_to_string(&mut text).map_err(io_error)?;
+    if text.len() as u64 > MAX_DEVICE_FILE_LEN {
+        return Err(clap::Error::raw(
+            ErrorKind::InvalidValue,
+            format!("device file '{}' is larger than {MAX_DEVICE_FILE_LEN} bytes\n", path.display()),
+        ));
+    }
+    Ok(text)
+}
+
+fn no_device(path: &Path) -> clap::Error {
+    clap::Error::raw(ErrorKind::InvalidValue, format!("device file '{}' names no device\n", path.display()))
+}
+
+/// Serial: the first line of the file (trimmed), as eProsima reads it.
+fn first_device(text: &str, path: &Path) -> Result<String, clap::Error> {
+    match text.lines().next().map(str::trim) {
+        Some(line) if !line.is_empty() => Ok(line.to_owned()),
+        _ => Err(no_device(path)),
+    }
+}
+
+/// Multiserial: one device per line; blank lines are skipped (eProsima would try to open "").
+fn all_devices(text: &str, path: &Path) -> Result<Vec<String>, clap::Error> {
+    let devices: Vec<String> = text.lines().map(str::trim).filter(|l| !l.is_empty()).map(str::to_owned).collect();
+    if devices.is_empty() {
+        return Err(no_device(path));
+    }
+    Ok(devices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const REFS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/vectors/agent.refs");
+
+    fn parse(line: &str) -> Result<Config, clap::Error> {
+        parse_from(std::iter::once("xrce-agent").chain(line.split_whitespace()))
+    }
+
+    fn ok(line: &str) -> Config {
+        match parse(line) {
+            Ok(c) => c,
+            Err(e) => panic!("`{line}` rejected: {e}"),
+        }
+    }
+
+    fn rejected(line: &str) -> ErrorKind {
+        match parse(line) {
+            Ok(c) => panic!("`{line}` accepted: {c:?}"),
+            Err(e) => e.kind(),
+        }
+    }
+
+    fn temp_file(name: &str, content: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("xrce-agent-cli-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, content).unwrap();
+        path
+    }
+
+    #[test]
+    fn udp4_with_eprosima_defaults() {
+        let c = ok("udp4 -p 8888");
+        assert_eq!(
+            c,
+            Config {
+                transport: Transport::Udp4 { port: 8888 },
+                middleware: MiddlewareKind::Dds,
+                refs: None,
+                verbosity: 4,
+                discovery: None,
+                p2p: None,
+            }
+        );
+        assert_eq!(c.log_level_filter(), LevelFilter::INFO);
+        assert_eq!(c.transport.name(), "udp4");
+        assert_eq!(c.transport.port(), Some(8888));
+    }
+
+    #[test]
+    fn every_ip_transport() {
+        assert_eq!(ok("udp6 -p 1").transport, Transport::Udp6 { port: 1 });
+        assert_eq!(ok("tcp4 --port 2").transport, Transport::Tcp4 { port: 2 });
+        assert_eq!(ok("tcp6 -p 65535").transport, Transport::Tcp6 { port: 65535 });
+        assert_eq!(ok("tcp6 --port=7").transport, Transport::Tcp6 { port: 7 });
+    }
+
+    #[test]
+    fn attached_short_values() {
+        let c = ok("udp4 -p8888 -v6 -mced -d7401 -P2019");
+        assert_eq!(c.transport, Transport::Udp4 { port: 8888 });
+        assert_eq!(c.verbosity, 6);
+        assert_eq!(c.middleware, MiddlewareKind::Ced);
+        assert_eq!(c.discovery, Some(7401));
+        assert_eq!(c.p2p, Some(2019));
+        assert_eq!(ok("serial -D/dev/ttyUSB0 -b9600").transport, Transport::Serial {
+            device: "/dev/ttyUSB0".into(),
+            baudrate: 9600
+        });
+    }
+
+    #[test]
+    fn the_readme_command() {
+        let c = ok("udp4 -p 8888 -m ced");
+        assert_eq!(c.middleware, MiddlewareKind::Ced);
+        assert_eq!(c.transport, Transport::Udp4 { port: 8888 });
+    }
+
+    #[test]
+    fn middleware_values() {
+        assert_eq!(ok("udp4 -p 1 -m dds").middleware, MiddlewareKind::Dds);
+        assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
+        assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
+        assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);
+        assert_eq!(rejected("udp4 -p 1 -m CED"), ErrorKind::InvalidValue);
+        assert_eq!(rejected("udp4 -p 1 -m"), ErrorKind::InvalidValue);
+    }
+
+    #[test]
+    fn verbosity_levels_and_bare_flag() {
+        for level in 0..=6u8 {
+            assert_eq!(ok(&format!("udp4 -p 1 -v {level}")).verbosity, level);
+            assert_eq!(ok(&format!("udp4 -p 1 --verbose {level}")).verbosity, level);
+            assert_eq!(ok(&format!("udp4 -p 1 -v{level}")).verbosity, level);
+        }
+        // Bare -v is eProsima's default level 4, whether last or followed by another option.
+        assert_eq!(ok("udp4 -p 1 -v").verbosity, 4);
+        assert_eq!(ok("udp4 -v -p 1").verbosity, 4);
+        assert_eq!(ok("udp4 --verbose -p 1").verbosity, 4);
+        assert_eq!(rejected("udp4 -p 1 -v 7"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p 1 -v7"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p 1 -v x"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p 1 -v -1"), ErrorKind::UnknownArgument);
+    }
+
+    #[test]
+    fn verbosity_maps_to_tracing_levels() {
+        let expected = [
+            LevelFilter::OFF,
+            LevelFilter::ERROR,
+            LevelFilter::ERROR,
+            LevelFilter::WARN,
+            LevelFilter::INFO,
+            LevelFilter::DEBUG,
+            LevelFilter::TRACE,
+        ];
+        for (level, filter) in expected.iter().enumerate() {
+            assert_eq!(verbosity_to_filter(level as u8), *filter);
+        }
+        assert_eq!(verbosity_to_filter(200), LevelFilter::TRACE);
+    }
+
+    #[test]
+    fn discovery_optional_port() {
+        assert_eq!(ok("udp4 -p 1").discovery, None);
+        assert_eq!(ok("udp4 -p 1 -d").discovery, Some(7400));
+        assert_eq!(ok("udp4 -d -p 1").discovery, Some(7400));
+        assert_eq!(ok("udp4 -p 1 --discovery").discovery, Some(DEFAULT_DISCOVERY_PORT));
+        assert_eq!(ok("udp4 -p 1 -d 7500").discovery, Some(7500));
+        assert_eq!(ok("udp4 -p 1 --discovery 7600").discovery, Some(7600));
+        assert_eq!(rejected("udp4 -p 1 -d 70000"), ErrorKind::ValueValidation);
+    }
+
+    #[test]
+    fn p2p_needs_a_port() {
+        assert_eq!(ok("udp4 -p 1 -P 2019").p2p, Some(2019));
+        assert_eq!(ok("udp4 -p 1 --p2p 2020").p2p, Some(2020));
+        assert_eq!(rejected("udp4 -p 1 -P"), ErrorKind::InvalidValue);
+        assert_eq!(rejected("udp4 -p 1 -P abc"), ErrorKind::ValueValidation);
+    }
+
+    #[test]
+    fn port_is_required_and_bounded() {
+        assert_eq!(rejected("udp4"), ErrorKind::MissingRequiredArgument);
+        assert_eq!(rejected("tcp4 -m ced"), ErrorKind::MissingRequiredArgument);
+        assert_eq!(rejected("udp4 -p 65536"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p -5"), ErrorKind::UnknownArgument);
+        assert_eq!(rejected("udp4 -p eighty"), ErrorKind::ValueValidation);
+    }
+
+    #[test]
+    fn refs_must_exist() {
+        let c = ok(&format!("udp4 -p 1 -r {REFS}"));
+        assert_eq!(c.refs.as_deref(), Some(Path::new(REFS)));
+        let c = ok(&format!("tcp4 -p 1 --refs {REFS}"));
+        assert_eq!(c.refs.as_deref(), Some(Path::new(REFS)));
+        assert_eq!(rejected("udp4 -p 1 -r /nonexistent/agent.refs"), ErrorKind::ValueValidation);
+    }
+
+    #[test]
+    fn serial_device_or_file() {
+        assert_eq!(ok("serial --dev /dev/ttyACM0").transport, Transport::Serial {
+            device: "/dev/ttyACM0".into(),
+            baudrate: 115_200
+        });
+        assert_eq!(ok("serial -D /dev/ttyACM0 -b 921600").transport, Transport::Serial {
+            device: "/dev/ttyACM0".into(),
+            baudrate: 921_600
+        });
+        // Non-standard rates are accepted, as eProsima does.
+        assert_eq!(ok("serial -D /dev/x --baudrate 250000").transport, Transport::Serial {
+            device: "/dev/x".into(),
+            baudrate: 250_000
+        });
+        let file = temp_file("serial.dev", "/dev/ttyUSB3\n/dev/ttyUSB4\n");
+        assert_eq!(ok(&format!("serial -f {}", file.display())).transport, Transport::Serial {
+            device: "/dev/ttyUSB3".into(),
+            baudrate: 115_200
+        });
+        assert_eq!(ok(&format!("serial --file {} -b 57600", file.display())).transport, Transport::Serial {
+            device: "/dev/ttyUSB3".into(),
+            baudrate: 57_600
+        });
+        assert_eq!(rejected("serial"), ErrorKind::MissingRequiredArgument);
+        assert_eq!(rejected(&format!("serial -D /dev/x -f {}", file.display())), ErrorKind::ArgumentConflict);
+        assert_eq!(rejected("serial -f /nonexistent/devs"), ErrorKind::Io);
+        let empty = temp_file("empty.dev", "\n");
+        assert_eq!(rejected(&format!("serial -f {}", empty.display())), ErrorKind::InvalidValue);
+        assert_eq!(rejected("serial -D /dev/x -b fast"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("serial -D /dev/x -p 8888"), ErrorKind::UnknownArgument);
+    }
+
+    #[test]
+    fn multiserial_devs_in_one_argument_or_file() {
+        let c = parse_from(["xrce-agent", "multiserial", "--devs", "/dev/ttyACM0 /dev/ttyACM1", "-b", "9600"]).unwrap();
+        assert_eq!(c.transport, Transport::MultiSerial {
+            devices: vec!["/dev/ttyACM0".into(), "/dev/ttyACM1".into()],
+            baudrate: 9600
+        });
+        let c = parse_from(["xrce-agent", "multiserial", "-D", "/dev/a"]).unwrap();
+        assert_eq!(c.transport, Transport::MultiSerial { devices: vec!["/dev/a".into()], baudrate: 115_200 });
+        let file = temp_file("multi.dev", "/dev/a\n\n  /dev/b  \n");
+        assert_eq!(ok(&format!("multiserial -f {}", file.display())).transport, Transport::MultiSerial {
+            devices: vec!["/dev/a".into(), "/dev/b".into()],
+            baudrate: 115_200
+        });
+        assert_eq!(rejected("multiserial"), ErrorKind::MissingRequiredArgument);
+        let e = parse_from(["xrce-agent", "multiserial", "--devs", "  "]).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::InvalidValue);
+        assert_eq!(rejected("multiserial --dev /dev/a"), ErrorKind::UnknownArgument);
+    }
+
+    #[test]
+    fn pseudoterminal_baudrate_only() {
+        assert_eq!(ok("pseudoterminal").transport, Transport::PseudoTerminal { baudrate: 115_200 });
+        assert_eq!(ok("pseudoterminal -b 57600 -v5").transport, Transport::PseudoTerminal { baudrate: 57_600 });
+        assert_eq!(rejected("pseudoterminal -D /dev/x"), ErrorKind::UnknownArgument);
+    }
+
+    #[test]
+    fn canfd_device_and_hex_id() {
+        assert_eq!(ok("canfd -D can0").transport, Transport::CanFd { device: "can0".into(), can_id: 1 });
+        assert_eq!(ok("canfd --dev vcan0 -I 0x123").transport, Transport::CanFd {
+            device: "vcan0".into(),
+            can_id: 0x123
+        });
+        assert_eq!(ok("canfd --dev vcan0 --id 1ABCDEF").transport, Transport::CanFd {
+            device: "vcan0".into(),
+            can_id: 0x1AB_CDEF
+        });
+        assert_eq!(ok("canfd -Dcan1 -I0X1fffffff").transport, Transport::CanFd {
+            device: "can1".into(),
+            can_id: MAX_CAN_ID
+        });
+        assert_eq!(rejected("canfd"), ErrorKind::MissingRequiredArgument);
+        assert_eq!(rejected("canfd -D can0 -I 0x20000000"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("canfd -D can0 -I xyz"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("canfd -D can0 -I +5"), ErrorKind::ValueValidation);
+    }
+
+    #[test]
+    fn common_options_on_every_transport() {
+        let file = temp_file("common.dev", "/dev/z\n");
+        for base in [
+            "udp4 -p 1".to_owned(),
+            "udp6 -p 1".to_owned(),
+            "tcp4 -p 1".to_owned(),
+            "tcp6 -p 1".to_owned(),
+            "serial -D /dev/x".to_owned(),
+            format!("serial -f {}", file.display()),
+            "multiserial --devs /dev/x".to_owned(),
+            "pseudoterminal".to_owned(),
+            "canfd -D can0".to_owned(),
+        ] {
+            let c = ok(&format!("{base} -m ced -r {REFS} -v 2 -d 7401 -P 2018"));
+            assert_eq!(c.middleware, MiddlewareKind::Ced, "{base}");
+            assert_eq!(c.refs.as_deref(), Some(Path::new(REFS)), "{base}");
+            assert_eq!(c.verbosity, 2, "{base}");
+            assert_eq!(c.discovery, Some(7401), "{base}");
+            assert_eq!(c.p2p, Some(2018), "{base}");
+        }
+    }
+
+    #[test]
+    fn repeated_option_keeps_last() {
+        assert_eq!(ok("udp4 -p 1 -p 2").transport, Transport::Udp4 { port: 2 });
+        assert_eq!(ok("udp4 -p 1 -v 2 -v 5").verbosity, 5);
+    }
+
+    #[test]
+    fn invalid_command_lines() {
+        assert_eq!(rejected(""), ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand);
+        assert_eq!(rejected("udp5 -p 1"), ErrorKind::InvalidSubcommand);
+        assert_eq!(rejected("tpc6 -p 1"), ErrorKind::InvalidSubcommand);
+        assert_eq!(rejected("-p 8888 udp4"), ErrorKind::UnknownArgument);
+        assert_eq!(rejected("udp4 -p 1 --bogus"), ErrorKind::UnknownArgument);
+        assert_eq!(rejected("udp4 -p 1 extra"), ErrorKind::UnknownArgument);
+        assert_eq!(rejected("udp4 -p 1 -b 9600"), ErrorKind::UnknownArgument);
+    }
+
+    #[test]
+    fn help_lists_everything() {
+        for line in ["--help", "-h"] {
+            let e = parse(line).unwrap_err();
+            assert_eq!(e.kind(), ErrorKind::DisplayHelp);
+            let help = e.to_string();
+            for word in [
+                "udp4",
+                "udp6",
+                "tcp4",
+                "tcp6",
+                "serial",
+                "multiserial",
+                "pseudoterminal",
+                "canfd",
+                "-m/--middleware",
+                "ced|dds|rtps",
+                "-r/--refs",
+                "-v/--verbose",
+                "-d/--discovery",
+                "-P/--p2p",
+                "-p/--port",
+                "-b/--baudrate",
+                "-D/--dev",
+                "-D/--devs",
+                "-f/--file",
+                "-I/--id",
+                "7400",
+                "115200",
+                "0x00000001",
+            ] {
+                assert!(help.contains(word), "top-level help lacks `{word}`:\n{help}");
+            }
+        }
+        let sub = |line: &str, words: &[&str]| {
+            let e = parse(line).unwrap_err();
+            assert_eq!(e.kind(), ErrorKind::DisplayHelp, "{line}");
+            let help = e.to_string();
+            for word in words {
+                assert!(help.contains(word), "`{line}` help lacks `{word}`:\n{help}");
+            }
+        };
+        let common = ["--middleware", "--refs", "--verbose", "--discovery", "--p2p", "[default: dds]", "[default: 4]"];
+        for t in ["udp4", "udp6", "tcp4", "tcp6"] {
+            sub(&format!("{t} --help"), &common);
+            sub(&format!("{t} -h"), &["--port"]);
+        }
+        sub("serial --help", &common);
+        sub("serial --help", &["--dev", "--file", "--baudrate", "[default: 115200]"]);
+        sub("multiserial --help", &["--devs", "--file", "--baudrate"]);
+        sub("pseudoterminal --help", &["--baudrate"]);
+        sub("canfd --help", &["--dev", "--id", "[default: 0x00000001]"]);
+    }
+
+    #[test]
+    fn command_is_consistent() {
+        command().debug_assert();
+    }
+}

@@ -1,0 +1,77 @@
+//! Tunables of the agent core. Every queue, table and buffer the core keeps is bounded by one of these; the
+//! defaults follow eProsima's agent where it has a value (spec §9.7) and are generous but finite elsewhere.
+
+use std::time::Duration;
+
+/// eProsima's reliable window: 16 messages in flight per stream, 16 stored out of order per input stream.
+pub const DEFAULT_RELIABLE_WINDOW: u16 = 16;
+/// eProsima's `UAGENT_CONFIG_HEARTBEAT_PERIOD`.
+pub const DEFAULT_HEARTBEAT_PERIOD: Duration = Duration::from_millis(200);
+/// eProsima's `CLIENT_DEAD_TIME`.
+pub const DEFAULT_CLIENT_DEAD_TIME: Duration = Duration::from_secs(30);
+/// Unanswered liveliness probes (clients with `uxr_hl`) before the client is removed, as eProsima.
+pub const DEFAULT_MAX_LIVELINESS_PROBES: u8 = 3;
+
+/// Limits and timings of an [`AgentCore`](super::AgentCore).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CoreConfig {
+    /// Most clients registered at once; a CREATE_CLIENT beyond it evicts the longest-dead client or is
+    /// refused with `STATUS_ERR_RESOURCES`.
+    pub max_clients: usize,
+    /// Most objects (all kinds) one client may own.
+    pub max_objects_per_client: usize,
+    /// Most active read tasks per client.
+    pub max_read_tasks_per_client: usize,
+    /// Most streams (each direction counted apart) a client may open.
+    pub max_streams_per_client: usize,
+    /// Reliable window (messages in flight out, stored out of order in); at most 16 fits the 16-bit
+    /// ACKNACK bitmap.
+    pub reliable_window: u16,
+    /// Messages queued behind a full reliable output window (STATUS, DATA fragments), per stream.
+    pub max_pending_per_stream: usize,
+    /// Largest message rebuilt from FRAGMENTs.
+    pub max_reassembly_size: usize,
+    /// Bytes a client may keep in out-of-order input buffers and reassembly buffers together.
+    pub max_buffered_bytes_per_client: usize,
+    /// Outgoing messages waiting for the shell; beyond it the oldest are dropped (reliable ones are
+    /// retransmitted later).
+    pub max_transmit_queue: usize,
+    /// Heartbeat period of reliable output streams (and liveliness probes).
+    pub heartbeat_period: Duration,
+    /// Silence after which a client counts as dead (overridden per client by `uxr_hl`).
+    pub client_dead_time: Duration,
+    /// Probes sent to a dead `uxr_hl` client before it is removed.
+    pub max_liveliness_probes: u8,
+    /// Remove any client silent this long (clients without `uxr_hl` included); `None` keeps them, as
+    /// eProsima does, until the client table is full.
+    pub remove_silent_clients_after: Option<Duration>,
+    /// Largest MTU the agent honours from CREATE_CLIENT; also the size used when the client says 0.
+    pub max_mtu: u16,
+    /// Smallest usable MTU: below it the agent could not even send a FRAGMENT (CREATE_CLIENT is refused).
+    pub min_mtu: u16,
+    /// Port reported in INFO locators (0: none).
+    pub info_port: u16,
+}
+
+impl Default for CoreConfig {
+    fn default() -> Self {
+        Self {
+            max_clients: 1024,
+            max_objects_per_client: 1024,
+            max_read_tasks_per_client: 256,
+            max_streams_per_client: 64,
+            reliable_window: DEFAULT_RELIABLE_WINDOW,
+            max_pending_per_stream: 4096,
+            max_reassembly_size: 1 << 20,
+            max_buffered_bytes_per_client: 4 << 20,
+            max_transmit_queue: 65_536,
+            heartbeat_period: DEFAULT_HEARTBEAT_PERIOD,
+            client_dead_time: DEFAULT_CLIENT_DEAD_TIME,
+            max_liveliness_probes: DEFAULT_MAX_LIVELINESS_PROBES,
+            remove_silent_clients_after: None,
+            max_mtu: 65_535,
+            min_mtu: 24,
+            info_port: 0,
+        }
+    }
+}

@@ -1,0 +1,375 @@
+//! The sans-IO agent core: datagrams in, datagrams out, middleware calls on the side.
+//!
+//! The shell (UDP, TCP, a test) feeds every received message with [`AgentCore::handle_datagram`], calls
+//! [`AgentCore::handle_timeout`] when [`AgentCore::poll_timeout`] says so, and sends what
+//! [`AgentCore::poll_transmit`] yields. The core never reads a clock or touches a socket: `now` comes from the
+//! shell, and wall-clock time (TIMESTAMP_REPLY) from the anchor set with [`AgentCore::set_wall_clock`].
+//! `E` is whatever identifies a peer for the shell (a socket address, a connection id).
+
+pub mod config;
+pub mod object;
+pub mod read;
+pub mod session;
+pub mod stream;
+
+mod process;
+
+use std::collections::{HashMap, VecDeque};
+use std::fmt::Debug;
+use std::hash::Hash;
+use std::time::{Duration, Instant};
+
+use xrce_proto::{ClientKey, MessageHeader, ObjectId, StatusCode};
+
+pub use config::CoreConfig;
+use session::ProxyClient;
+
+use crate::middleware::{EntityRef, Middleware};
+
+/// A message for the shell to send.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Transmit<E> {
+    /// Destination.
+    pub to: E,
+    /// One complete XRCE message.
+    pub data: Vec<u8>,
+}
+
+/// Counters for diagnostics; all saturate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CoreStats {
+    /// Datagrams handed to the core.
+    pub datagrams_in: u64,
+    /// Datagrams dropped whole (undecodable header, unknown client, out-of-window, ...).
+    pub datagrams_dropped: u64,
+    /// Submessages that failed to decode.
+    pub decode_errors: u64,
+    /// Messages queued for sending.
+    pub messages_out: u64,
+    /// Outgoing messages dropped (transmit queue full, too large for the MTU on a best-effort stream).
+    pub messages_dropped_out: u64,
+}
+
+/// The agent core. See the module documentation.
+pub struct AgentCore<E, M> {
+    config: CoreConfig,
+    middleware: M,
+    clients: HashMap<ClientKey, ProxyClient<E>>,
+    by_endpoint: HashMap<E, ClientKey>,
+    transmits: VecDeque<Transmit<E>>,
+    heartbeat_due: Option<Instant>,
+    pump_needed: bool,
+    wall_anchor: Option<(Instant, Duration)>,
+    last_now: Option<Instant>,
+    stats: CoreStats,
+}
+
+impl<E: Debug, M> Debug for AgentCore<E, M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AgentCore")
+            .field("clients", &self.clients.len())
+            .field("transmits", &self.transmits.len())
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<E, M> AgentCore<E, M>
+where
+    E: Copy + Eq + Hash + Debug,
+    M: Middleware,
+{
+    /// A core with no clients.
+    pub fn new(config: CoreConfig, middleware: M) -> Self {
+        Self {
+            config,
+            middleware,
+            clients: HashMap::new(),
+            by_endpoint: HashMap::new(),
+            transmits: VecDeque::new(),
+            heartbeat_due: None,
+            pump_needed: false,
+            wall_anchor: None,
+            last_now: None,
+            stats: CoreStats::default(),
+        }
+    }
+
+    /// Ties `now` to a wall-clock time (duration since the Unix epoch) for TIMESTAMP_REPLY. Without it the
+    /// core answers with times counted from the first instant it saw.
+    pub fn set_wall_clock(&mut self, now: Instant, since_epoch: Duration) {
+        self.wall_anchor = Some((now, since_epoch));
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &CoreConfig {
+        &self.config
+    }
+
+    /// The middleware.
+    pub fn middleware(&self) -> &M {
+        &self.middleware
+    }
+
+    /// The middleware, mutably.
+    pub fn middleware_mut(&mut self) -> &mut M {
+        &mut self.middleware
+    }
+
+    /// Diagnostics counters.
+    pub fn stats(&self) -> CoreStats {
+        self.stats
+    }
+
+    /// Keys of the registered clients.
+    pub fn client_keys(&self) -> Vec<ClientKey> {
+        self.clients.keys().copied().collect()
+    }
+
+    /// Whether `key` is registered.
+    pub fn has_client(&self, key: ClientKey) -> bool {
+        self.clients.contains_key(&key)
+    }
+
+    /// Whether `key` has object `id`.
+    pub fn has_object(&self, key: ClientKey, id: ObjectId) -> bool {
+        self.clients.get(&key).is_some_and(|c| c.objects.contains(id))
+    }
+
+    /// Handles one received message from `from`.
+    pub fn handle_datagram(&mut self, from: E, bytes: &[u8], now: Instant) {
+        self.stats.datagrams_in = self.stats.datagrams_in.saturating_add(1);
+        if self.wall_anchor.is_none() {
+            self.wall_anchor = Some((now, Duration::ZERO));
+        }
+        self.last_now = Some(now);
+        self.process_datagram(from, bytes, now);
+        if self.pump_needed {
+            self.pump_reads(now);
+        }
+    }
+
+    /// The next instant [`Self::handle_timeout`] must be called, if any.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let reads = self.clients.values().flat_map(|c| c.reads.values()).filter_map(read::ReadTask::wake_at).min();
+        [self.heartbeat_due, reads].into_iter().flatten().min()
+    }
+
+    /// Runs timers: heartbeats, liveliness probes, removal of dead clients, paced reads.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        self.last_now = Some(now);
+        if self.heartbeat_due.is_some_and(|due| now >= due) {
+            self.heartbeat_due = None;
+            self.heartbeat_tick(now);
+        }
+        self.pump_reads(now);
+    }
+
+    /// Polls the readers of active read tasks; call it when an asynchronous middleware's waker fired.
+    pub fn poll_middleware(&mut self, now: Instant) {
+        self.pump_reads(now);
+    }
+
+    /// The next message to send.
+    pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
+        self.transmits.pop_front()
+    }
+
+    /// Number of messages waiting in [`Self::poll_transmit`].
+    pub fn pending_transmits(&self) -> usize {
+        self.transmits.len()
+    }
+
+    /// Creates or refreshes a client without a CREATE_CLIENT message (library API; eProsima's
+    /// `create_client`). Its endpoint is learned from its first message.
+    pub fn create_client(&mut self, key: ClientKey, session_id: u8, mtu: u16, now: Instant) -> StatusCode {
+        self.register_client(None, key, session_id, mtu, None, now)
+    }
+
+    /// Deletes a client and all its entities.
+    pub fn delete_client(&mut self, key: ClientKey) -> StatusCode {
+        if self.remove_client(key) {
+            StatusCode::OK
+        } else {
+            StatusCode::ERR_UNKNOWN_REFERENCE
+        }
+    }
+
+    /// Deletes every client (eProsima's `Agent::reset`).
+    pub fn reset(&mut self) {
+        for key in self.client_keys() {
+            self.remove_client(key);
+        }
+        self.transmits.clear();
+    }
+
+    /// Creates an entity for a client as a CREATE would (library API).
+    pub fn create_entity(
+        &mut self,
+        key: ClientKey,
+        id: ObjectId,
+        variant: &xrce_proto::EntityVariant<'_>,
+        mode: xrce_proto::submessage::CreationMode,
+    ) -> StatusCode {
+        if !self.clients.contains_key(&key) {
+            return StatusCode::ERR_UNKNOWN_REFERENCE;
+        }
+        self.pump_needed = true;
+        self.create_object(key, id, variant, mode, xrce_proto::Endianness::Little)
+    }
+
+    /// Deletes an entity and its children (library API).
+    pub fn delete_entity(&mut self, key: ClientKey, id: ObjectId) -> StatusCode {
+        self.delete_object(key, id)
+    }
+
+    // ---- internals shared by the submodules ----
+
+    fn push_transmit(&mut self, to: Option<E>, data: Vec<u8>) {
+        let Some(to) = to else {
+            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
+            return;
+        };
+        if self.transmits.len() >= self.config.max_transmit_queue {
+            self.transmits.pop_front();
+            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
+        }
+        self.stats.messages_out = self.stats.messages_out.saturating_add(1);
+        self.transmits.push_back(Transmit { to, data });
+    }
+
+    fn wall_time(&self, now: Instant) -> xrce_proto::Time {
+        let (at, since_epoch) = self.wall_anchor.unwrap_or((now, Duration::ZERO));
+        let t = if now >= at {
+            since_epoch.saturating_add(now - at)
+        } else {
+            since_epoch.saturating_sub(at - now)
+        };
+        xrce_proto::Time {
+            seconds: i32::try_from(t.as_secs()).unwrap_or(i32::MAX),
+            nanoseconds: t.subsec_nanos(),
+        }
+    }
+
+    fn arm_heartbeat(&mut self, now: Instant) {
+        if self.heartbeat_due.is_none() {
+            self.heartbeat_due = Some(now + self.config.heartbeat_period);
+        }
+    }
+
+    /// Removes a client: its entities (children first, so middleware callbacks see each), its read tasks, its
+    /// endpoint binding.
+    fn remove_client(&mut self, key: ClientKey) -> bool {
+        let Some(mut client) = self.clients.remove(&key) else { return false };
+        for (reader, _) in client.reads.drain() {
+            self.middleware.stop_reading(EntityRef::new(key, reader));
+        }
+        for root in client.objects.roots() {
+            for id in client.objects.subtree(root) {
+                if let Err(e) = self.middleware.delete(EntityRef::new(key, id)) {
+                    tracing::debug!(client = %key, %id, "middleware delete failed: {e}");
+                }
+                client.objects.remove(id);
+            }
+        }
+        self.middleware.delete_client(key);
+        if let Some(ep) = client.endpoint {
+            if self.by_endpoint.get(&ep) == Some(&key) {
+                self.by_endpoint.remove(&ep);
+            }
+        }
+        tracing::info!(client = %key, "client removed");
+        true
+    }
+
+    fn heartbeat_tick(&mut self, now: Instant) {
+        let dead_time = self.config.client_dead_time;
+        let mut remove = Vec::new();
+        let mut probe = Vec::new();
+        let mut beats = Vec::new();
+        let mut again = false;
+        for (key, client) in &mut self.clients {
+            let silent = now.saturating_duration_since(client.last_heard);
+            if self.config.remove_silent_clients_after.is_some_and(|limit| silent > limit) {
+                remove.push(*key);
+                continue;
+            }
+            if client.is_dead(now, dead_time) {
+                if client.hard_liveliness.is_some() {
+                    if client.probes >= self.config.max_liveliness_probes {
+                        remove.push(*key);
+                    } else {
+                        client.probes += 1;
+                        probe.push(*key);
+                        again = true;
+                    }
+                }
+                continue;
+            }
+            if client.hard_liveliness.is_some() || self.config.remove_silent_clients_after.is_some() {
+                again = true;
+            }
+            for (sid, stream) in &client.streams.rel_out {
+                if let Some(hb) = stream.heartbeat(*sid) {
+                    beats.push((*key, hb));
+                    again = true;
+                }
+            }
+        }
+        for key in remove {
+            tracing::info!(client = %key, "client dead, removing");
+            self.remove_client(key);
+        }
+        for key in probe {
+            let probe = xrce_proto::submessage::GetInfo {
+                request: xrce_proto::BaseObjectRequest { request_id: xrce_proto::RequestId(0), object_id: ObjectId::CLIENT },
+                info_mask: 0,
+            };
+            self.send_control(key, &xrce_proto::Submessage::GetInfo(probe));
+        }
+        for (key, hb) in beats {
+            self.send_control(key, &xrce_proto::Submessage::Heartbeat(hb));
+        }
+        if again {
+            self.heartbeat_due = Some(now + self.config.heartbeat_period);
+        }
+    }
+
+    /// Encodes a one-submessage control message on stream 0 to a client.
+    fn send_control(&mut self, key: ClientKey, sub: &xrce_proto::Submessage<'_>) {
+        let Some(client) = self.clients.get(&key) else { return };
+        let header = client.header(xrce_proto::StreamId::NONE, 0);
+        let to = client.endpoint;
+        if let Some(msg) = encode_message(&header, sub) {
+            self.push_transmit(to, msg);
+        }
+    }
+}
+
+/// Encodes `header` + one submessage.
+fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
+    let mut buf = vec![0u8; 256];
+    match xrce_proto::message::encode_single(&mut buf, header, sub, xrce_proto::Endianness::Little) {
+        Ok(n) => {
+            buf.truncate(n);
+            Some(buf)
+        }
+        Err(xrce_proto::cdr::Error::BufferTooSmall { needed }) if needed <= 65_535 + 8 => {
+            buf.resize(needed, 0);
+            let n = xrce_proto::message::encode_single(&mut buf, header, sub, xrce_proto::Endianness::Little).ok()?;
+            buf.truncate(n);
+            Some(buf)
+        }
+        Err(e) => {
+            tracing::warn!("cannot encode {}: {e}", sub.id());
+            None
+        }
+    }
+}
+
+/// Encodes one submessage (header included) as it would sit after a message header of `header_len` bytes.
+fn encode_submessage(header_len: usize, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
+    let header = MessageHeader::new(if header_len == 8 { 0x01 } else { 0x81 }, xrce_proto::StreamId::NONE, 0, ClientKey::INVALID);
+    let mut msg = encode_message(&header, sub)?;
+    Some(msg.split_off(header_len))
+}

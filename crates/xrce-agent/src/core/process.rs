@@ -1,0 +1,819 @@
+//! Message processing: routing a datagram to its client and stream, then each submessage to its handler
+//! (spec §10.3), and the agent's outgoing traffic per stream.
+
+use std::time::Instant;
+
+use xrce_proto::message::parse;
+use xrce_proto::object::{AgentRepresentation, ClientRepresentation};
+use xrce_proto::submessage::{
+    ActivityInfo, Create, CreationMode, DataFormat, DataPayload, GetInfo, Info, ReadData, StatusAgent,
+    TimestampReply,
+};
+use xrce_proto::{
+    BaseObjectReply, BaseObjectRequest, ClientKey, EntityVariant, Endianness, MessageHeader, ObjectId, ObjectKind,
+    ObjectVariant, RawSubmessage, ResultStatus, StatusCode, StreamId, StreamKind, Submessage, XRCE_COOKIE,
+};
+
+use super::object::is_entity_kind;
+use super::read::{ReadRequest, ReadTask};
+use super::session::{parse_hard_liveliness, ProxyClient};
+use super::stream::{fragment, InAction, ReliableIn, ReliableOut};
+use super::{encode_message, encode_submessage, AgentCore};
+use crate::middleware::{Creation, EntityRef, Middleware, Sample};
+
+use std::fmt::Debug;
+use std::hash::Hash;
+
+/// Samples one read task may send per pump on a best-effort stream (reliable streams are bounded by their
+/// window).
+const MAX_SAMPLES_PER_PUMP: usize = 64;
+
+/// The stream STATUS replies go on: 0x80 for requests from reliable streams, 0x01 otherwise (spec §10.3).
+fn reply_stream(input: StreamId) -> StreamId {
+    if input.is_reliable() {
+        StreamId::BUILTIN_RELIABLE
+    } else {
+        StreamId::BUILTIN_BEST_EFFORT
+    }
+}
+
+/// Whether processing of the message continues after a submessage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Flow {
+    Continue,
+    Stop,
+}
+
+impl<E, M> AgentCore<E, M>
+where
+    E: Copy + Eq + Hash + Debug,
+    M: Middleware,
+{
+    fn drop_datagram(&mut self) {
+        self.stats.datagrams_dropped = self.stats.datagrams_dropped.saturating_add(1);
+    }
+
+    pub(super) fn process_datagram(&mut self, from: E, bytes: &[u8], now: Instant) {
+        let header = match MessageHeader::decode(bytes) {
+            Ok((h, _)) => h,
+            Err(e) => {
+                tracing::warn!(peer = ?from, len = bytes.len(), "dropping message: bad header: {e}");
+                self.drop_datagram();
+                return;
+            }
+        };
+        if header.session_id == xrce_proto::SESSION_ID_NONE_WITH_KEY
+            || header.session_id == xrce_proto::SESSION_ID_NONE_WITHOUT_KEY
+        {
+            self.out_of_session(from, &header, bytes, now);
+            return;
+        }
+        let key = match header.client_key {
+            Some(k) => Some(k),
+            None => self.by_endpoint.get(&from).copied(),
+        };
+        let Some(key) = key.filter(|k| self.clients.contains_key(k)) else {
+            self.unknown_client(from, &header, bytes);
+            return;
+        };
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        client.last_heard = now;
+        client.probes = 0;
+        if header.client_key.is_some() {
+            // Keyed sessions: replies follow the client wherever it now sends from.
+            client.endpoint = Some(from);
+        } else if client.endpoint.is_none() {
+            client.endpoint = Some(from);
+        }
+        let stream = header.stream_id;
+        match stream.kind() {
+            StreamKind::None => self.process_message(key, bytes, stream, now, false),
+            StreamKind::BestEffort => {
+                let Some(client) = self.clients.get_mut(&key) else { return };
+                if !client.streams.be_in.contains_key(&stream.0)
+                    && client.streams.count() >= self.config.max_streams_per_client
+                {
+                    tracing::warn!(peer = ?from, client = %key, "dropping message: too many streams");
+                    self.drop_datagram();
+                    return;
+                }
+                if client.streams.be_in.entry(stream.0).or_default().accept(header.sequence_nr) {
+                    self.process_message(key, bytes, stream, now, false);
+                } else {
+                    tracing::trace!(client = %key, seq = header.sequence_nr, "best-effort: old message dropped");
+                    self.drop_datagram();
+                }
+            }
+            StreamKind::Reliable => self.process_reliable(from, key, &header, bytes, now),
+        }
+    }
+
+    fn process_reliable(&mut self, from: E, key: ClientKey, header: &MessageHeader, bytes: &[u8], now: Instant) {
+        let stream = header.stream_id;
+        let window = self.config.reliable_window;
+        let max_streams = self.config.max_streams_per_client;
+        let max_buffered = self.config.max_buffered_bytes_per_client;
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        if !client.streams.rel_in.contains_key(&stream.0) && client.streams.count() >= max_streams {
+            tracing::warn!(peer = ?from, client = %key, "dropping message: too many streams");
+            self.drop_datagram();
+            return;
+        }
+        let room = max_buffered.saturating_sub(client.streams.buffered());
+        let input = client.streams.rel_in.entry(stream.0).or_insert_with(|| ReliableIn::new(window));
+        match input.receive(header.sequence_nr, bytes, room) {
+            InAction::Process => {
+                input.advance();
+                self.process_message(key, bytes, stream, now, false);
+                self.drain_reliable(key, stream, now);
+            }
+            InAction::Stored => {}
+            InAction::Dropped => self.drop_datagram(),
+        }
+        self.send_acknack(key, stream);
+    }
+
+    /// Processes the stored messages of a reliable input stream that became next in order.
+    fn drain_reliable(&mut self, key: ClientKey, stream: StreamId, now: Instant) {
+        loop {
+            let next = self
+                .clients
+                .get_mut(&key)
+                .and_then(|c| c.streams.rel_in.get_mut(&stream.0))
+                .and_then(ReliableIn::pop_ready);
+            let Some(msg) = next else { break };
+            self.process_message(key, &msg, stream, now, false);
+        }
+    }
+
+    fn send_acknack(&mut self, key: ClientKey, stream: StreamId) {
+        let ack = self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
+        if let Some(ack) = ack {
+            self.send_control(key, &Submessage::AckNack(ack));
+        }
+    }
+
+    /// CREATE_CLIENT and GET_INFO outside a session (header session id 0x00 or 0x80).
+    fn out_of_session(&mut self, from: E, header: &MessageHeader, bytes: &[u8], now: Instant) {
+        for raw in parse_submessages(bytes, header) {
+            let decoded = match raw.decode() {
+                Ok(d) => d,
+                Err(e) => {
+                    tracing::warn!(peer = ?from, id = raw.header.id, "dropping submessage: {e}");
+                    self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
+                    break;
+                }
+            };
+            match decoded {
+                Submessage::CreateClient(rep) => self.handle_create_client(from, header, &rep, now),
+                Submessage::GetInfo(get) => {
+                    let known = self.by_endpoint.contains_key(&from)
+                        || header
+                            .client_key
+                            .and_then(|k| self.clients.get(&k))
+                            .is_some_and(|c| c.endpoint == Some(from));
+                    let reply = info_reply(&get, u8::from(known));
+                    if let Some(msg) = encode_message(header, &Submessage::Info(reply)) {
+                        self.push_transmit(Some(from), msg);
+                    }
+                }
+                other => {
+                    tracing::debug!(peer = ?from, id = other.id(), "submessage outside a session ignored");
+                    break;
+                }
+            }
+        }
+    }
+
+    /// A message for a session the agent does not know (spec §10.3).
+    fn unknown_client(&mut self, from: E, header: &MessageHeader, bytes: &[u8]) {
+        let mut answered = false;
+        for raw in parse_submessages(bytes, header) {
+            match raw.decode() {
+                Ok(Submessage::Delete(req)) if req.object_id == ObjectId::CLIENT => {
+                    let reply = BaseObjectReply { related_request: req, result: ResultStatus::new(StatusCode::OK) };
+                    let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
+                    if let Some(msg) = encode_message(&h, &Submessage::Status(reply)) {
+                        self.push_transmit(Some(from), msg);
+                    }
+                    answered = true;
+                }
+                Ok(Submessage::GetInfo(get)) => {
+                    let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
+                    if let Some(msg) = encode_message(&h, &Submessage::Info(info_reply(&get, 0))) {
+                        self.push_transmit(Some(from), msg);
+                    }
+                    answered = true;
+                }
+                _ => break,
+            }
+        }
+        if !answered {
+            tracing::debug!(peer = ?from, session = header.session_id, "message for an unknown session dropped");
+            self.drop_datagram();
+        }
+    }
+
+    fn handle_create_client(&mut self, from: E, header: &MessageHeader, rep: &ClientRepresentation<'_>, now: Instant) {
+        let status = self.register_client(Some(from), rep.client_key, rep.session_id, rep.mtu, Some(rep), now);
+        if status.is_ok() {
+            tracing::info!(peer = ?from, client = %rep.client_key, session = rep.session_id, mtu = rep.mtu, "session established");
+        } else {
+            tracing::warn!(peer = ?from, client = %rep.client_key, status = status.name(), "CREATE_CLIENT refused");
+        }
+        let key = header.client_key.unwrap_or(rep.client_key);
+        let reply_header = MessageHeader::new(rep.session_id, StreamId::NONE, 0, key);
+        let reply = StatusAgent { result: ResultStatus::new(status), agent: AgentRepresentation::EPROSIMA };
+        if let Some(msg) = encode_message(&reply_header, &Submessage::StatusAgent(reply)) {
+            self.push_transmit(Some(from), msg);
+        }
+    }
+
+    /// CREATE_CLIENT semantics (spec §10.2), shared with the library API (`from` = None).
+    pub(super) fn register_client(
+        &mut self,
+        from: Option<E>,
+        key: ClientKey,
+        session_id: u8,
+        mtu: u16,
+        rep: Option<&ClientRepresentation<'_>>,
+        now: Instant,
+    ) -> StatusCode {
+        // An endpoint speaks for one client: a new key from it replaces the old client.
+        if let Some(ep) = from {
+            if let Some(old) = self.by_endpoint.get(&ep).copied().filter(|old| *old != key) {
+                self.remove_client(old);
+            }
+        }
+        if key == ClientKey::INVALID {
+            return StatusCode::ERR_INVALID_DATA;
+        }
+        if let Some(rep) = rep {
+            if rep.xrce_cookie != XRCE_COOKIE {
+                return StatusCode::ERR_INVALID_DATA;
+            }
+            if rep.xrce_version[0] != xrce_proto::XRCE_VERSION[0] {
+                return StatusCode::ERR_INCOMPATIBLE;
+            }
+        }
+        if mtu < self.config.min_mtu {
+            return StatusCode::ERR_INVALID_DATA;
+        }
+        let mtu = usize::from(mtu.min(self.config.max_mtu));
+        let same_session = self.clients.get(&key).map(|c| c.session_id == session_id);
+        match same_session {
+            Some(true) => {
+                let Some(client) = self.clients.get_mut(&key) else { return StatusCode::ERR_RESOURCES };
+                client.reset_streams();
+                client.mtu = mtu;
+                client.last_heard = now;
+                client.probes = 0;
+            }
+            Some(false) | None => {
+                if same_session == Some(false) {
+                    self.remove_client(key);
+                } else if self.clients.len() >= self.config.max_clients && !self.evict_dead_client(now) {
+                    return StatusCode::ERR_RESOURCES;
+                }
+                let mut client = ProxyClient::new(key, session_id, mtu, from, now);
+                if let Some(rep) = rep {
+                    client.hard_liveliness = rep.property("uxr_hl").and_then(parse_hard_liveliness);
+                    client.shared_memory = rep.property("uxr_sm") == Some("1");
+                }
+                if client.hard_liveliness.is_some() {
+                    self.arm_heartbeat(now);
+                }
+                self.clients.insert(key, client);
+            }
+        }
+        if let Some(ep) = from {
+            if let Some(client) = self.clients.get_mut(&key) {
+                if let Some(old) = client.endpoint.replace(ep) {
+                    if old != ep && self.by_endpoint.get(&old) == Some(&key) {
+                        self.by_endpoint.remove(&old);
+                    }
+                }
+            }
+            if !xrce_proto::session_has_key(session_id) {
+                self.by_endpoint.insert(ep, key);
+            }
+        }
+        StatusCode::OK
+    }
+
+    /// Makes room in a full client table by removing the client silent the longest, if it is dead.
+    fn evict_dead_client(&mut self, now: Instant) -> bool {
+        let dead_time = self.config.client_dead_time;
+        let victim = self
+            .clients
+            .values()
+            .filter(|c| c.is_dead(now, dead_time))
+            .min_by_key(|c| c.last_heard)
+            .map(|c| c.key);
+        victim.is_some_and(|k| self.remove_client(k))
+    }
+
+    /// Processes the submessages of one in-session message, in order, stopping at the first failure.
+    /// `nested`: the message was rebuilt from fragments (FRAGMENTs inside it are ignored).
+    fn process_message(&mut self, key: ClientKey, msg: &[u8], stream: StreamId, now: Instant, nested: bool) {
+        let Ok((header, subs)) = parse(msg) else { return };
+        for raw in subs {
+            let raw = match raw {
+                Ok(r) => r,
+                Err(e) => {
+                    let peer = self.clients.get(&key).and_then(|c| c.endpoint);
+                    tracing::warn!(?peer, client = %key, "submessage length past the end: {e}");
+                    self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
+                    break;
+                }
+            };
+            let flow = match raw.decode() {
+                Ok(sub) => self.handle_submessage(key, &header, msg, stream, &raw, sub, now, nested),
+                Err(e) => {
+                    let peer = self.clients.get(&key).and_then(|c| c.endpoint);
+                    tracing::warn!(?peer, client = %key, id = raw.header.id, "undecodable submessage: {e}");
+                    self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
+                    self.answer_undecodable(key, stream, &raw);
+                    Flow::Stop
+                }
+            };
+            if flow == Flow::Stop || !self.clients.contains_key(&key) {
+                break;
+            }
+        }
+    }
+
+    /// A CREATE or DELETE whose payload did not decode still gets a STATUS when its request id is readable,
+    /// so the client does not wait forever.
+    fn answer_undecodable(&mut self, key: ClientKey, stream: StreamId, raw: &RawSubmessage<'_>) {
+        use xrce_proto::submessage::id;
+        if raw.header.id != id::CREATE && raw.header.id != id::DELETE {
+            return;
+        }
+        if let Some(&[r0, r1, o0, o1]) = raw.payload().first_chunk::<4>() {
+            let request = BaseObjectRequest {
+                request_id: xrce_proto::RequestId(u16::from_be_bytes([r0, r1])),
+                object_id: ObjectId([o0, o1]),
+            };
+            self.send_status(key, reply_stream(stream), request, StatusCode::ERR_INVALID_DATA);
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn handle_submessage(
+        &mut self,
+        key: ClientKey,
+        header: &MessageHeader,
+        msg: &[u8],
+        stream: StreamId,
+        raw: &RawSubmessage<'_>,
+        sub: Submessage<'_>,
+        now: Instant,
+        nested: bool,
+    ) -> Flow {
+        let endian = raw.header.endianness();
+        match sub {
+            Submessage::Create(create) => {
+                self.handle_create(key, stream, &create, endian);
+                Flow::Continue
+            }
+            Submessage::Delete(req) if req.object_id == ObjectId::CLIENT => {
+                let status = if self.remove_client(key) { StatusCode::OK } else { StatusCode::ERR_UNKNOWN_REFERENCE };
+                // The client is gone: answer with its header, on stream 0, to where the request came from.
+                let reply = BaseObjectReply { related_request: req, result: ResultStatus::new(status) };
+                let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
+                let to = self.last_peer_of(key);
+                if let Some(m) = encode_message(&h, &Submessage::Status(reply)) {
+                    self.push_transmit(to, m);
+                }
+                Flow::Stop
+            }
+            Submessage::Delete(req) => {
+                let status = self.delete_object(key, req.object_id);
+                self.send_status(key, reply_stream(stream), req, status);
+                Flow::Continue
+            }
+            Submessage::GetInfo(get) => {
+                self.send_control(key, &Submessage::Info(info_reply(&get, 1)));
+                Flow::Continue
+            }
+            Submessage::WriteData(data) => self.handle_write(key, &data),
+            Submessage::ReadData(read) => {
+                self.handle_read(key, &read, now);
+                Flow::Continue
+            }
+            Submessage::AckNack(ack) => {
+                self.handle_acknack(key, &ack);
+                Flow::Continue
+            }
+            Submessage::Heartbeat(hb) => {
+                let sid = StreamId(hb.stream_id);
+                if sid.is_reliable() {
+                    if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&hb.stream_id)) {
+                        input.on_heartbeat(&hb);
+                    }
+                    self.drain_reliable(key, sid, now);
+                    self.send_acknack(key, sid);
+                }
+                Flow::Continue
+            }
+            Submessage::Reset => {
+                if let Some(c) = self.clients.get_mut(&key) {
+                    c.reset_streams();
+                }
+                Flow::Stop
+            }
+            Submessage::Fragment { last, data } => {
+                if nested || !stream.is_reliable() {
+                    return Flow::Continue;
+                }
+                self.handle_fragment(key, msg, header, stream, data, last, now);
+                Flow::Continue
+            }
+            Submessage::Timestamp(t) => {
+                let received = self.wall_time(now);
+                let reply = TimestampReply { transmit_timestamp: received, receive_timestamp: received, originate_timestamp: t };
+                self.send_control(key, &Submessage::TimestampReply(reply));
+                Flow::Continue
+            }
+            Submessage::CreateClient(_) => {
+                tracing::debug!(client = %key, "CREATE_CLIENT inside a session ignored");
+                Flow::Continue
+            }
+            other => {
+                tracing::debug!(client = %key, id = other.id(), "unexpected submessage: rest of message ignored");
+                Flow::Stop
+            }
+        }
+    }
+
+    fn last_peer_of(&self, key: ClientKey) -> Option<E> {
+        self.clients.get(&key).and_then(|c| c.endpoint).or_else(|| {
+            self.by_endpoint.iter().find(|(_, k)| **k == key).map(|(e, _)| *e)
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn handle_fragment(
+        &mut self,
+        key: ClientKey,
+        msg: &[u8],
+        header: &MessageHeader,
+        stream: StreamId,
+        data: &[u8],
+        last: bool,
+        now: Instant,
+    ) {
+        let max = self.config.max_reassembly_size;
+        let max_buffered = self.config.max_buffered_bytes_per_client;
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        let buffered = client.streams.buffered();
+        let Some(input) = client.streams.rel_in.get_mut(&stream.0) else { return };
+        let head = msg.get(..header.size()).unwrap_or(&[]);
+        let limit = max.min(max_buffered.saturating_sub(buffered).saturating_add(input.buffered()));
+        match input.push_fragment(head, data, last, limit) {
+            Ok(Some(rebuilt)) => self.process_message(key, &rebuilt, stream, now, true),
+            Ok(None) => {}
+            Err(size) => {
+                let peer = client.endpoint;
+                tracing::warn!(?peer, client = %key, size, limit, "fragmented message too large, dropped");
+            }
+        }
+    }
+
+    // ---- objects ----
+
+    fn handle_create(&mut self, key: ClientKey, stream: StreamId, create: &Create<'_>, endian: Endianness) {
+        self.pump_needed = true;
+        let status = match &create.variant {
+            ObjectVariant::Entity(variant) => {
+                let id = create.request.object_id.with_kind(variant.kind);
+                self.create_object(key, id, variant, create.mode, endian)
+            }
+            // eProsima stores nothing for these and answers with the initial STATUS_OK (spec §7.1).
+            ObjectVariant::Profile { .. } => StatusCode::OK,
+            ObjectVariant::Agent(_) | ObjectVariant::Client(_) => StatusCode::ERR_INVALID_DATA,
+        };
+        self.send_status(key, reply_stream(stream), create.request, status);
+    }
+
+    /// CREATE semantics with creation modes (spec §11).
+    pub(super) fn create_object(
+        &mut self,
+        key: ClientKey,
+        id: ObjectId,
+        variant: &EntityVariant<'_>,
+        mode: CreationMode,
+        endian: Endianness,
+    ) -> StatusCode {
+        let kind = variant.kind;
+        if !is_entity_kind(kind) {
+            return StatusCode::ERR_DDS_ERROR;
+        }
+        let id = id.with_kind(kind);
+        let parent = match (variant.parent(), kind.parent()) {
+            (Some(p), Some(parent_kind)) => Some(p.with_kind(parent_kind)),
+            _ => None,
+        };
+        let max_objects = self.config.max_objects_per_client;
+        let Some(client) = self.clients.get(&key) else { return StatusCode::ERR_UNKNOWN_REFERENCE };
+        if let Some(p) = parent {
+            if !client.objects.contains(p) {
+                return StatusCode::ERR_UNKNOWN_REFERENCE;
+            }
+        }
+        let exists = client.objects.contains(id);
+        if !exists && client.objects.len() >= max_objects {
+            return StatusCode::ERR_RESOURCES;
+        }
+        let creation = Creation {
+            entity: EntityRef::new(key, id),
+            parent: parent.map(|p| EntityRef::new(key, p)),
+            variant,
+            endian,
+        };
+        if exists {
+            match (mode.reuse, mode.replace) {
+                (false, false) => return StatusCode::ERR_ALREADY_EXISTS,
+                (true, replace) => {
+                    if self.middleware.matches(&creation) {
+                        return StatusCode::OK_MATCHED;
+                    }
+                    if !replace {
+                        return StatusCode::ERR_MISMATCH;
+                    }
+                }
+                (false, true) => {}
+            }
+            self.delete_object(key, id);
+        }
+        match self.middleware.create(&creation) {
+            Ok(()) => {
+                if let Some(client) = self.clients.get_mut(&key) {
+                    client.objects.insert(id, parent);
+                }
+                tracing::debug!(client = %key, %id, ?kind, "entity created");
+                StatusCode::OK
+            }
+            Err(e) => {
+                tracing::warn!(client = %key, %id, ?kind, "entity creation failed: {e}");
+                e.status()
+            }
+        }
+    }
+
+    /// Deletes an object and everything below it.
+    pub(super) fn delete_object(&mut self, key: ClientKey, id: ObjectId) -> StatusCode {
+        let Some(client) = self.clients.get_mut(&key) else { return StatusCode::ERR_UNKNOWN_REFERENCE };
+        if !client.objects.contains(id) {
+            return StatusCode::ERR_UNKNOWN_REFERENCE;
+        }
+        for victim in client.objects.subtree(id) {
+            if client.reads.remove(&victim).is_some() {
+                self.middleware.stop_reading(EntityRef::new(key, victim));
+            }
+            if let Err(e) = self.middleware.delete(EntityRef::new(key, victim)) {
+                tracing::debug!(client = %key, id = %victim, "middleware delete failed: {e}");
+            }
+            client.objects.remove(victim);
+        }
+        StatusCode::OK
+    }
+
+    // ---- data ----
+
+    fn handle_write(&mut self, key: ClientKey, data: &DataPayload<'_>) -> Flow {
+        if data.format != DataFormat::DATA {
+            // eProsima implements FORMAT_DATA only and stops processing the message.
+            tracing::debug!(client = %key, format = data.format.0, "WRITE_DATA format not supported");
+            return Flow::Stop;
+        }
+        let id = data.request.object_id;
+        if !self.has_object(key, id) {
+            tracing::debug!(client = %key, %id, "WRITE_DATA to an unknown object dropped");
+            return Flow::Continue;
+        }
+        self.pump_needed = true;
+        let entity = EntityRef::new(key, id);
+        let result = match id.kind() {
+            ObjectKind::DataWriter => self.middleware.write_data(entity, data.data),
+            ObjectKind::Requester => self.middleware.write_request(entity, data.request.request_id, data.data),
+            ObjectKind::Replier => match data.split_sample_identity() {
+                Ok((identity, reply)) => self.middleware.write_reply(entity, &identity, reply),
+                Err(e) => {
+                    tracing::warn!(client = %key, %id, "reply without a sample identity: {e}");
+                    return Flow::Continue;
+                }
+            },
+            other => {
+                tracing::debug!(client = %key, %id, ?other, "WRITE_DATA to an object that cannot write");
+                return Flow::Continue;
+            }
+        };
+        if let Err(e) = result {
+            tracing::debug!(client = %key, %id, "write failed: {e}");
+        }
+        Flow::Continue
+    }
+
+    fn handle_read(&mut self, key: ClientKey, read: &ReadData<'_>, now: Instant) {
+        let id = read.request.object_id;
+        let entity = EntityRef::new(key, id);
+        let readable = matches!(id.kind(), ObjectKind::DataReader | ObjectKind::Requester | ObjectKind::Replier);
+        if !readable || !self.has_object(key, id) {
+            self.send_status(key, StreamId::BUILTIN_RELIABLE, read.request, StatusCode::ERR_UNKNOWN_REFERENCE);
+            return;
+        }
+        let (what, task) = ReadTask::from_spec(read.request, &read.spec, now);
+        let max_tasks = self.config.max_read_tasks_per_client;
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        if client.reads.remove(&id).is_some() {
+            self.middleware.stop_reading(entity);
+        }
+        if what == ReadRequest::Cancel {
+            return;
+        }
+        if client.reads.len() >= max_tasks {
+            self.send_status(key, StreamId::BUILTIN_RELIABLE, read.request, StatusCode::ERR_RESOURCES);
+            return;
+        }
+        if let Err(e) = self.middleware.start_reading(entity) {
+            tracing::warn!(client = %key, %id, "cannot start reading: {e}");
+            self.send_status(key, StreamId::BUILTIN_RELIABLE, read.request, StatusCode::ERR_RESOURCES);
+            return;
+        }
+        if let Some(client) = self.clients.get_mut(&key) {
+            client.reads.insert(id, task);
+        }
+        self.pump_needed = true;
+    }
+
+    fn handle_acknack(&mut self, key: ClientKey, ack: &xrce_proto::submessage::AckNack) {
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        let header = client.header(StreamId(ack.stream_id), 0);
+        let to = client.endpoint;
+        let Some(out) = client.streams.rel_out.get_mut(&ack.stream_id) else { return };
+        let mut sent = Vec::new();
+        out.on_acknack(ack, |m| sent.push(m));
+        out.flush(&header, |m| sent.push(m));
+        for m in sent {
+            self.push_transmit(to, m);
+        }
+        self.pump_needed = true;
+    }
+
+    /// Delivers samples for every active read task while streams have room.
+    pub(super) fn pump_reads(&mut self, now: Instant) {
+        self.pump_needed = false;
+        let keys: Vec<ClientKey> =
+            self.clients.iter().filter(|(_, c)| !c.reads.is_empty()).map(|(k, _)| *k).collect();
+        for key in keys {
+            let readers: Vec<ObjectId> = self.clients.get(&key).map(|c| c.reads.keys().copied().collect()).unwrap_or_default();
+            for reader in readers {
+                self.pump_reader(key, reader, now);
+            }
+        }
+    }
+
+    fn pump_reader(&mut self, key: ClientKey, reader: ObjectId, now: Instant) {
+        let entity = EntityRef::new(key, reader);
+        for _ in 0..MAX_SAMPLES_PER_PUMP {
+            let Some(client) = self.clients.get_mut(&key) else { return };
+            let Some(task) = client.reads.get_mut(&reader) else { return };
+            if task.finished(now) {
+                client.reads.remove(&reader);
+                self.middleware.stop_reading(entity);
+                return;
+            }
+            let stream = task.stream;
+            if stream.is_reliable() && client.streams.rel_out.get(&stream.0).is_some_and(|s| !s.is_idle()) {
+                return;
+            }
+            let Some(size) = self.middleware.next_sample_size(entity) else { return };
+            if task.ready(size, now).is_err() {
+                return;
+            }
+            let request = task.request;
+            let Some(sample) = self.middleware.take_sample(entity) else { return };
+            self.send_data(key, stream, request, &sample, now);
+            if let Some(task) = self.clients.get_mut(&key).and_then(|c| c.reads.get_mut(&reader)) {
+                task.sent(size, now);
+            }
+        }
+    }
+
+    /// Sends a sample as one DATA submessage on `stream` (spec §6.8).
+    fn send_data(&mut self, key: ClientKey, stream: StreamId, request: BaseObjectRequest, sample: &Sample, now: Instant) {
+        let payload_len = 4 + sample.wire_size();
+        let Ok(length) = u16::try_from(payload_len) else {
+            tracing::warn!(client = %key, size = payload_len, "sample too large for one DATA submessage, dropped");
+            return;
+        };
+        let mut sub = Vec::with_capacity(4 + payload_len);
+        sub.extend_from_slice(&xrce_proto::SubmessageHeader { id: xrce_proto::submessage::id::DATA, flags: 0x01, length }.to_bytes());
+        sub.extend_from_slice(&request.request_id.0.to_be_bytes());
+        sub.extend_from_slice(&request.object_id.0);
+        match sample {
+            Sample::Data(d) => sub.extend_from_slice(d),
+            Sample::Request { identity, data } => {
+                let mut id_buf = [0u8; xrce_proto::SampleIdentity::SIZE];
+                let mut w = xrce_proto::cdr::Writer::new(&mut id_buf, Endianness::Little);
+                w.write(identity);
+                sub.extend_from_slice(&id_buf);
+                sub.extend_from_slice(data);
+            }
+            Sample::Reply { request_id, data } => {
+                sub.extend_from_slice(&request_id.0.to_be_bytes());
+                sub.extend_from_slice(&request.object_id.0);
+                sub.extend_from_slice(data);
+            }
+        }
+        self.send_on_stream(key, stream, sub, Some(now));
+    }
+
+    fn send_status(&mut self, key: ClientKey, stream: StreamId, request: BaseObjectRequest, status: StatusCode) {
+        let reply = BaseObjectReply { related_request: request, result: ResultStatus::new(status) };
+        let Some(client) = self.clients.get(&key) else { return };
+        let header_len = client.header(stream, 0).size();
+        if let Some(sub) = encode_submessage(header_len, &Submessage::Status(reply)) {
+            let now = self.last_now;
+            self.send_on_stream(key, stream, sub, now);
+        }
+    }
+
+    /// Sends one submessage (header included) to a client on an output stream.
+    fn send_on_stream(&mut self, key: ClientKey, stream: StreamId, sub: Vec<u8>, now: Option<Instant>) {
+        let window = self.config.reliable_window;
+        let max_pending = self.config.max_pending_per_stream;
+        let max_streams = self.config.max_streams_per_client;
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        let to = client.endpoint;
+        let header = client.header(stream, 0);
+        let header_len = header.size();
+        let fits = header_len + sub.len() <= client.mtu;
+        let is_new = match stream.kind() {
+            StreamKind::None => false,
+            StreamKind::BestEffort => !client.streams.be_out.contains_key(&stream.0),
+            StreamKind::Reliable => !client.streams.rel_out.contains_key(&stream.0),
+        };
+        if is_new && client.streams.count() >= max_streams {
+            tracing::warn!(client = %key, stream = stream.0, "too many streams: message dropped");
+            return;
+        }
+        match stream.kind() {
+            StreamKind::None | StreamKind::BestEffort => {
+                if !fits {
+                    tracing::debug!(client = %key, stream = stream.0, len = sub.len(), "message over the MTU on an unreliable stream dropped");
+                    self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
+                    return;
+                }
+                let seq = if stream.kind() == StreamKind::None {
+                    0
+                } else {
+                    client.streams.be_out.entry(stream.0).or_default().next_seq()
+                };
+                let mut msg = vec![0u8; header_len];
+                if (MessageHeader { sequence_nr: seq, ..header }).encode(&mut msg).is_err() {
+                    return;
+                }
+                msg.extend_from_slice(&sub);
+                self.push_transmit(to, msg);
+            }
+            StreamKind::Reliable => {
+                let bodies = if fits { vec![sub] } else { fragment(&sub, client.mtu, header_len) };
+                let out = client.streams.rel_out.entry(stream.0).or_insert_with(|| ReliableOut::new(window, max_pending));
+                if !out.queue(bodies) {
+                    tracing::warn!(client = %key, stream = stream.0, "reliable output queue full: message dropped");
+                    self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
+                    return;
+                }
+                let mut sent = Vec::new();
+                out.flush(&header, |m| sent.push(m));
+                for m in sent {
+                    self.push_transmit(to, m);
+                }
+                if let Some(now) = now {
+                    self.arm_heartbeat(now);
+                }
+            }
+        }
+    }
+}
+
+/// Submessages of a message whose header is already decoded; stops at the first length error.
+fn parse_submessages<'a>(bytes: &'a [u8], header: &MessageHeader) -> impl Iterator<Item = RawSubmessage<'a>> {
+    xrce_proto::Submessages::new(bytes, header.size()).map_while(Result::ok)
+}
+
+/// The INFO the agent answers a GET_INFO with (spec §6.7): configuration and activity, no locators.
+fn info_reply(get: &GetInfo, implementation_status: u8) -> Info<'static> {
+    Info {
+        reply: BaseObjectReply {
+            related_request: get.request,
+            result: ResultStatus { status: StatusCode::OK, implementation_status },
+        },
+        config: Some(ObjectVariant::Agent(AgentRepresentation::EPROSIMA)),
+        activity: Some(ActivityInfo::Agent { availability: 1, address_seq: xrce_proto::cdr::Seq::EMPTY }),
+    }
+}
+

@@ -1,0 +1,375 @@
+//! Input and output streams of one client session (spec §9): best-effort ordering, reliable windows with
+//! HEARTBEAT/ACKNACK, and fragmentation both ways.
+
+use std::collections::VecDeque;
+
+use xrce_proto::submessage::{flag, id, AckNack, Heartbeat};
+use xrce_proto::{MessageHeader, SubmessageHeader};
+
+/// `a < b` in 16-bit serial arithmetic (spec §9.1).
+pub const fn seq_lt(a: u16, b: u16) -> bool {
+    a != b && b.wrapping_sub(a) < 0x8000
+}
+
+/// `a <= b` in 16-bit serial arithmetic.
+pub const fn seq_le(a: u16, b: u16) -> bool {
+    a == b || seq_lt(a, b)
+}
+
+/// Best-effort input: newer messages only (spec §9.2).
+#[derive(Debug, Clone)]
+pub struct BestEffortIn {
+    last: u16,
+}
+
+impl Default for BestEffortIn {
+    fn default() -> Self {
+        Self { last: u16::MAX }
+    }
+}
+
+impl BestEffortIn {
+    /// Whether a message with `seq` is accepted (and remembered as the newest).
+    pub fn accept(&mut self, seq: u16) -> bool {
+        if seq_lt(self.last, seq) {
+            self.last = seq;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// What a reliable input stream does with a message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InAction {
+    /// It is the next one: process it now, then drain [`ReliableIn::pop_ready`].
+    Process,
+    /// Stored (or already stored) for later.
+    Stored,
+    /// Duplicate, outside the window, or no room: dropped.
+    Dropped,
+}
+
+/// Reliable input stream (spec §9.5): window of `window` messages, in-order processing, FRAGMENT reassembly.
+#[derive(Debug, Clone)]
+pub struct ReliableIn {
+    last_handled: u16,
+    last_announced: u16,
+    window: u16,
+    /// Slot `i` holds message `last_handled + 1 + i`.
+    stored: VecDeque<Option<Vec<u8>>>,
+    /// Header of the first fragment and the concatenated fragment payloads.
+    reassembly: Option<(Vec<u8>, Vec<u8>)>,
+}
+
+impl ReliableIn {
+    /// An empty stream expecting sequence number 0.
+    pub fn new(window: u16) -> Self {
+        Self {
+            last_handled: u16::MAX,
+            last_announced: u16::MAX,
+            window: window.clamp(1, 16),
+            stored: VecDeque::new(),
+            reassembly: None,
+        }
+    }
+
+    /// Bytes held (stored messages and partial reassembly), for the per-client bound.
+    pub fn buffered(&self) -> usize {
+        let stored: usize = self.stored.iter().flatten().map(Vec::len).sum();
+        stored + self.reassembly.as_ref().map_or(0, |(h, d)| h.len() + d.len())
+    }
+
+    /// Classifies message `seq`; stores a copy when it is ahead and `room` allows.
+    pub fn receive(&mut self, seq: u16, message: &[u8], room: usize) -> InAction {
+        let next = self.last_handled.wrapping_add(1);
+        if seq_lt(self.last_announced, seq) {
+            self.last_announced = seq;
+        }
+        if !seq_le(next, seq) || !seq_lt(seq, next.wrapping_add(self.window)) {
+            return InAction::Dropped;
+        }
+        if seq == next {
+            return InAction::Process;
+        }
+        let index = usize::from(seq.wrapping_sub(next));
+        while self.stored.len() <= index {
+            self.stored.push_back(None);
+        }
+        match self.stored.get_mut(index) {
+            Some(slot @ None) if message.len() <= room => {
+                *slot = Some(message.to_vec());
+                InAction::Stored
+            }
+            Some(Some(_)) => InAction::Stored,
+            _ => InAction::Dropped,
+        }
+    }
+
+    /// Marks the next message handled (after [`InAction::Process`]).
+    pub fn advance(&mut self) {
+        self.last_handled = self.last_handled.wrapping_add(1);
+        self.stored.pop_front();
+    }
+
+    /// The next stored message if it is the next in order; marks it handled.
+    pub fn pop_ready(&mut self) -> Option<Vec<u8>> {
+        if !matches!(self.stored.front(), Some(Some(_))) {
+            return None;
+        }
+        self.last_handled = self.last_handled.wrapping_add(1);
+        self.stored.pop_front().flatten()
+    }
+
+    /// A HEARTBEAT from the client: give up on messages it no longer holds (spec §9.5).
+    pub fn on_heartbeat(&mut self, hb: &Heartbeat) {
+        let first = hb.first_unacked_seq_nr;
+        while seq_lt(self.last_handled.wrapping_add(1), first) {
+            self.last_handled = self.last_handled.wrapping_add(1);
+            self.stored.pop_front();
+        }
+        if seq_lt(self.last_announced, hb.last_unacked_seq_nr) {
+            self.last_announced = hb.last_unacked_seq_nr;
+        }
+    }
+
+    /// The ACKNACK describing this stream's state; `stream_id` is the client's stream.
+    pub fn acknack(&self, stream_id: u8) -> AckNack {
+        let first = self.last_handled.wrapping_add(1);
+        let mut bitmap = 0u16;
+        for i in 0..16u16 {
+            let seq = first.wrapping_add(i);
+            if !seq_le(seq, self.last_announced) {
+                break;
+            }
+            let stored = matches!(self.stored.get(usize::from(i)), Some(Some(_)));
+            if !stored {
+                bitmap |= 1 << i;
+            }
+        }
+        AckNack { first_unacked_seq_num: first, nack_bitmap: bitmap.to_be_bytes(), stream_id }
+    }
+
+    /// Appends a FRAGMENT payload; returns the rebuilt message (header + payloads) when `last`, or an error
+    /// when it would exceed `max` bytes (the partial message is dropped).
+    pub fn push_fragment(&mut self, header: &[u8], data: &[u8], last: bool, max: usize) -> Result<Option<Vec<u8>>, usize> {
+        let (head, body) = self.reassembly.get_or_insert_with(|| (header.to_vec(), Vec::new()));
+        if head.len() + body.len() + data.len() > max {
+            let size = head.len() + body.len() + data.len();
+            self.reassembly = None;
+            return Err(size);
+        }
+        body.extend_from_slice(data);
+        if !last {
+            return Ok(None);
+        }
+        Ok(self.reassembly.take().map(|(mut h, b)| {
+            h.extend_from_slice(&b);
+            h
+        }))
+    }
+}
+
+/// Best-effort output: the sequence counter.
+#[derive(Debug, Clone)]
+pub struct BestEffortOut {
+    last: u16,
+}
+
+impl Default for BestEffortOut {
+    fn default() -> Self {
+        Self { last: u16::MAX }
+    }
+}
+
+impl BestEffortOut {
+    /// Sequence number for the next message.
+    pub fn next_seq(&mut self) -> u16 {
+        self.last = self.last.wrapping_add(1);
+        self.last
+    }
+}
+
+/// Reliable output stream (spec §9.5): up to `window` messages in flight, kept for retransmission until
+/// acknowledged; more are queued (bounded) instead of being dropped as eProsima does.
+#[derive(Debug, Clone)]
+pub struct ReliableOut {
+    first_unacked: u16,
+    /// Sequence number of the next message put in flight.
+    next_seq: u16,
+    window: u16,
+    /// Messages in flight, `first_unacked + i`, complete with header.
+    in_flight: VecDeque<Vec<u8>>,
+    /// Message bodies (submessages without header) waiting for room in the window.
+    pending: VecDeque<Vec<u8>>,
+    max_pending: usize,
+}
+
+impl ReliableOut {
+    /// An empty stream whose first message will be sequence 0.
+    pub fn new(window: u16, max_pending: usize) -> Self {
+        Self {
+            first_unacked: 0,
+            next_seq: 0,
+            window: window.clamp(1, 16),
+            in_flight: VecDeque::new(),
+            pending: VecDeque::new(),
+            max_pending,
+        }
+    }
+
+    /// Bodies that can still be queued.
+    pub fn room(&self) -> usize {
+        self.max_pending.saturating_sub(self.pending.len())
+    }
+
+    /// Whether nothing waits behind the window (the time to take another sample for it).
+    pub fn is_idle(&self) -> bool {
+        self.pending.is_empty() && self.in_flight.len() < usize::from(self.window)
+    }
+
+    /// Whether messages are unacknowledged (heartbeats are due).
+    pub fn has_unacked(&self) -> bool {
+        !self.in_flight.is_empty()
+    }
+
+    /// Queues message bodies; all or nothing. Returns false when there is no room.
+    pub fn queue(&mut self, bodies: Vec<Vec<u8>>) -> bool {
+        if bodies.len() > self.room() {
+            return false;
+        }
+        self.pending.extend(bodies);
+        true
+    }
+
+    /// Moves queued bodies into the window, stamping `header` with their sequence numbers; `send` gets
+    /// each complete message.
+    pub fn flush(&mut self, header: &MessageHeader, mut send: impl FnMut(Vec<u8>)) {
+        while self.in_flight.len() < usize::from(self.window) {
+            let Some(body) = self.pending.pop_front() else { break };
+            let h = MessageHeader { sequence_nr: self.next_seq, ..*header };
+            let mut msg = vec![0u8; h.size()];
+            if h.encode(&mut msg).is_err() {
+                continue;
+            }
+            msg.extend_from_slice(&body);
+            self.next_seq = self.next_seq.wrapping_add(1);
+            send(msg.clone());
+            self.in_flight.push_back(msg);
+        }
+    }
+
+    /// An ACKNACK from the client: release what it has, resend what it misses (selective repeat).
+    pub fn on_acknack(&mut self, ack: &AckNack, mut send: impl FnMut(Vec<u8>)) {
+        let first = ack.first_unacked_seq_num;
+        // Only acknowledge what was sent: an ACKNACK beyond next_seq is bogus.
+        if seq_le(first, self.next_seq) {
+            while seq_lt(self.first_unacked, first) && !self.in_flight.is_empty() {
+                self.in_flight.pop_front();
+                self.first_unacked = self.first_unacked.wrapping_add(1);
+            }
+        }
+        let bitmap = ack.bitmap();
+        for i in 0..16u16 {
+            if bitmap & (1 << i) == 0 {
+                continue;
+            }
+            let seq = first.wrapping_add(i);
+            if !seq_le(self.first_unacked, seq) {
+                continue;
+            }
+            if let Some(msg) = self.in_flight.get(usize::from(seq.wrapping_sub(self.first_unacked))) {
+                send(msg.clone());
+            }
+        }
+    }
+
+    /// The HEARTBEAT to send for this stream, if anything is unacknowledged.
+    pub fn heartbeat(&self, stream_id: u8) -> Option<Heartbeat> {
+        self.has_unacked().then(|| Heartbeat {
+            first_unacked_seq_nr: self.first_unacked,
+            last_unacked_seq_nr: self.next_seq.wrapping_sub(1),
+            stream_id,
+        })
+    }
+}
+
+/// Cuts one submessage (header included) into FRAGMENT bodies that fit messages of `mtu` bytes with a
+/// header of `header_len` bytes (spec §9.6). No padding anywhere: the C client glues what follows the
+/// FRAGMENT header into its reassembly buffer.
+pub fn fragment(submessage: &[u8], mtu: usize, header_len: usize) -> Vec<Vec<u8>> {
+    let chunk = mtu.saturating_sub(header_len + SubmessageHeader::SIZE).max(1);
+    let count = submessage.len().div_ceil(chunk);
+    submessage
+        .chunks(chunk)
+        .enumerate()
+        .map(|(i, part)| {
+            let last = i + 1 == count;
+            let flags = flag::ENDIANNESS | if last { flag::LAST_FRAGMENT } else { 0 };
+            // A chunk never exceeds `mtu`, itself a u16.
+            let length = u16::try_from(part.len()).unwrap_or(u16::MAX);
+            let mut body = Vec::with_capacity(SubmessageHeader::SIZE + part.len());
+            body.extend_from_slice(&SubmessageHeader { id: id::FRAGMENT, flags, length }.to_bytes());
+            body.extend_from_slice(part);
+            body
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use xrce_proto::{ClientKey, StreamId};
+
+    #[test]
+    fn serial_arithmetic_wraps() {
+        assert!(seq_lt(0xFFFF, 0));
+        assert!(seq_lt(1, 2));
+        assert!(!seq_lt(2, 2));
+        assert!(!seq_lt(0x8001, 1) || seq_lt(0x8001, 1));
+    }
+
+    #[test]
+    fn reliable_in_orders_and_acknacks() {
+        let mut s = ReliableIn::new(16);
+        assert_eq!(s.receive(1, b"one", 100), InAction::Stored);
+        let ack = s.acknack(0x80);
+        assert_eq!(ack.first_unacked_seq_num, 0);
+        assert_eq!(ack.bitmap(), 0b01);
+        assert_eq!(s.receive(0, b"zero", 100), InAction::Process);
+        s.advance();
+        assert_eq!(s.pop_ready().as_deref(), Some(&b"one"[..]));
+        assert_eq!(s.pop_ready(), None);
+        assert_eq!(s.acknack(0x80).first_unacked_seq_num, 2);
+        assert_eq!(s.receive(1, b"one", 100), InAction::Dropped);
+        assert_eq!(s.receive(40, b"far", 100), InAction::Dropped);
+    }
+
+    #[test]
+    fn reliable_out_window_and_retransmission() {
+        let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
+        let mut out = ReliableOut::new(16, 100);
+        assert!(out.queue((0..20u8).map(|i| vec![i]).collect()));
+        let mut sent = Vec::new();
+        out.flush(&header, |m| sent.push(m));
+        assert_eq!(sent.len(), 16);
+        assert_eq!(out.heartbeat(0x80).map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((0, 15)));
+        sent.clear();
+        out.on_acknack(&AckNack { first_unacked_seq_num: 4, nack_bitmap: [0, 1], stream_id: 0x80 }, |m| sent.push(m));
+        assert_eq!(sent, vec![vec![0x81, 0x80, 4, 0, 4]]);
+        sent.clear();
+        out.flush(&header, |m| sent.push(m));
+        assert_eq!(sent.len(), 4);
+    }
+
+    #[test]
+    fn fragments_fit_the_mtu() {
+        let sub = vec![7u8; 1000];
+        let frags = fragment(&sub, 508, 4);
+        assert_eq!(frags.len(), 2);
+        assert!(frags.iter().all(|f| f.len() + 4 <= 508));
+        assert_eq!(frags[1][1], 0x03);
+        assert_eq!(frags[0][1], 0x01);
+    }
+}

@@ -1,0 +1,127 @@
+//! User callbacks on entity creation and deletion (eProsima's `add_middleware_callback`), as a middleware
+//! decorator. Unlike eProsima, where only the participant callbacks fire, every kind listed fires.
+
+use std::sync::Arc;
+
+use xrce_proto::{ClientKey, ObjectKind, RequestId, SampleIdentity};
+
+use super::{Creation, EntityRef, Middleware, MiddlewareError, Sample, Waker};
+
+/// When a callback fires (eProsima's `middleware::CallbackKind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[allow(missing_docs)]
+pub enum CallbackKind {
+    CreateParticipant,
+    CreateDataWriter,
+    CreateDataReader,
+    CreateRequester,
+    CreateReplier,
+    DeleteParticipant,
+    DeleteDataWriter,
+    DeleteDataReader,
+    DeleteRequester,
+    DeleteReplier,
+}
+
+impl CallbackKind {
+    /// The kind for creating (`created`) or deleting an entity of `kind`, if callbacks exist for it.
+    pub const fn for_entity(kind: ObjectKind, created: bool) -> Option<Self> {
+        Some(match (kind, created) {
+            (ObjectKind::Participant, true) => Self::CreateParticipant,
+            (ObjectKind::DataWriter, true) => Self::CreateDataWriter,
+            (ObjectKind::DataReader, true) => Self::CreateDataReader,
+            (ObjectKind::Requester, true) => Self::CreateRequester,
+            (ObjectKind::Replier, true) => Self::CreateReplier,
+            (ObjectKind::Participant, false) => Self::DeleteParticipant,
+            (ObjectKind::DataWriter, false) => Self::DeleteDataWriter,
+            (ObjectKind::DataReader, false) => Self::DeleteDataReader,
+            (ObjectKind::Requester, false) => Self::DeleteRequester,
+            (ObjectKind::Replier, false) => Self::DeleteReplier,
+            _ => return None,
+        })
+    }
+}
+
+/// A callback: gets the event kind and the entity.
+pub type Callback = Arc<dyn Fn(CallbackKind, EntityRef) + Send + Sync>;
+
+/// Wraps a middleware and calls the registered callbacks after each successful create/delete.
+pub struct WithCallbacks<M> {
+    inner: M,
+    callbacks: Vec<(CallbackKind, Callback)>,
+}
+
+impl<M> std::fmt::Debug for WithCallbacks<M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WithCallbacks").field("callbacks", &self.callbacks.len()).finish_non_exhaustive()
+    }
+}
+
+impl<M: Middleware> WithCallbacks<M> {
+    /// `inner` with no callbacks yet.
+    pub fn new(inner: M) -> Self {
+        Self { inner, callbacks: Vec::new() }
+    }
+
+    /// Adds a callback for `kind`.
+    pub fn add(&mut self, kind: CallbackKind, callback: Callback) {
+        self.callbacks.push((kind, callback));
+    }
+
+    /// The wrapped middleware.
+    pub fn inner(&self) -> &M {
+        &self.inner
+    }
+
+    fn fire(&self, entity: EntityRef, created: bool) {
+        let Some(kind) = CallbackKind::for_entity(entity.kind(), created) else { return };
+        for (k, cb) in &self.callbacks {
+            if *k == kind {
+                cb(kind, entity);
+            }
+        }
+    }
+}
+
+impl<M: Middleware> Middleware for WithCallbacks<M> {
+    fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
+        self.inner.create(creation)?;
+        self.fire(creation.entity, true);
+        Ok(())
+    }
+    fn matches(&self, creation: &Creation<'_>) -> bool {
+        self.inner.matches(creation)
+    }
+    fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
+        self.inner.delete(entity)?;
+        self.fire(entity, false);
+        Ok(())
+    }
+    fn delete_client(&mut self, client: ClientKey) {
+        self.inner.delete_client(client);
+    }
+    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
+        self.inner.write_data(writer, data)
+    }
+    fn write_request(&mut self, requester: EntityRef, id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
+        self.inner.write_request(requester, id, data)
+    }
+    fn write_reply(&mut self, replier: EntityRef, identity: &SampleIdentity, data: &[u8]) -> Result<(), MiddlewareError> {
+        self.inner.write_reply(replier, identity, data)
+    }
+    fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
+        self.inner.start_reading(reader)
+    }
+    fn stop_reading(&mut self, reader: EntityRef) {
+        self.inner.stop_reading(reader);
+    }
+    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
+        self.inner.next_sample_size(reader)
+    }
+    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
+        self.inner.take_sample(reader)
+    }
+    fn set_waker(&mut self, waker: Waker) {
+        self.inner.set_waker(waker);
+    }
+}

@@ -1,0 +1,250 @@
+//! The boundary between the XRCE agent core and whatever carries the data: the in-agent router
+//! ([`ced`]), and later real DDS.
+//!
+//! The core calls the middleware synchronously: to create and delete entities, to write samples, requests
+//! and replies, and to take samples for readers that have an active read task. A middleware whose data
+//! arrives on its own threads (DDS) keeps it in bounded per-reader queues and calls the [`Waker`] it was given
+//! so the transport shell runs the core, which then polls the readers with active read tasks
+//! ([`Middleware::next_sample_size`] / [`Middleware::take_sample`]). CED needs no waker: samples appear only
+//! through writes the core itself performs, after which it polls the readers anyway.
+
+pub mod callbacks;
+pub mod ced;
+pub mod describe;
+
+use std::fmt;
+use std::sync::Arc;
+
+use xrce_proto::{ClientKey, EntityVariant, Endianness, ObjectId, ObjectKind, RequestId, SampleIdentity};
+
+pub use describe::{Description, ProfileSource, TopicRef};
+
+/// An entity of a client: the client's key and the object id (kind in the low nibble).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct EntityRef {
+    /// Owner.
+    pub client: ClientKey,
+    /// Object id with its kind.
+    pub id: ObjectId,
+}
+
+impl EntityRef {
+    /// The entity `id` of `client`.
+    pub const fn new(client: ClientKey, id: ObjectId) -> Self {
+        Self { client, id }
+    }
+
+    /// Kind of the entity.
+    pub const fn kind(&self) -> ObjectKind {
+        self.id.kind()
+    }
+}
+
+impl fmt::Debug for EntityRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}({:?})", self.client, self.id, self.id.kind())
+    }
+}
+
+/// What the core asks a middleware to create.
+#[derive(Debug, Clone, Copy)]
+pub struct Creation<'a> {
+    /// The new entity (id rebuilt with the variant's kind, spec §5.2).
+    pub entity: EntityRef,
+    /// Its parent (participant, publisher or subscriber), already checked to exist in the client's table.
+    pub parent: Option<EntityRef>,
+    /// The representation as received.
+    pub variant: &'a EntityVariant<'a>,
+    /// Byte order of binary blobs (the E flag of the CREATE).
+    pub endian: Endianness,
+}
+
+/// Why a middleware refused an operation; the core maps it to a STATUS code.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MiddlewareError {
+    /// The description could not be understood or refers to something unknown (STATUS_ERR_DDS_ERROR).
+    #[error("invalid entity description: {0}")]
+    InvalidDescription(String),
+    /// A referenced entity does not exist in the middleware (STATUS_ERR_UNKNOWN_REFERENCE).
+    #[error("unknown reference: {0}")]
+    UnknownReference(String),
+    /// A bound was reached (STATUS_ERR_RESOURCES).
+    #[error("out of resources: {0}")]
+    Resources(String),
+    /// The operation does not apply to this entity or middleware (STATUS_ERR_DDS_ERROR).
+    #[error("unsupported: {0}")]
+    Unsupported(String),
+}
+
+impl MiddlewareError {
+    /// The STATUS code eProsima would answer with.
+    pub const fn status(&self) -> xrce_proto::StatusCode {
+        use xrce_proto::StatusCode;
+        match self {
+            Self::InvalidDescription(_) | Self::Unsupported(_) => StatusCode::ERR_DDS_ERROR,
+            Self::UnknownReference(_) => StatusCode::ERR_UNKNOWN_REFERENCE,
+            Self::Resources(_) => StatusCode::ERR_RESOURCES,
+        }
+    }
+}
+
+/// A sample taken for a read task, shaped by the kind of the reading entity (spec §6.8).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Sample {
+    /// For a datareader: the serialized sample.
+    Data(Vec<u8>),
+    /// For a replier: a request and the identity the reply must carry.
+    Request {
+        /// Identity of the request.
+        identity: SampleIdentity,
+        /// Request bytes.
+        data: Vec<u8>,
+    },
+    /// For a requester: a reply to the request that was written with `request_id`.
+    Reply {
+        /// Request id of the WRITE_DATA that carried the request.
+        request_id: RequestId,
+        /// Reply bytes.
+        data: Vec<u8>,
+    },
+}
+
+impl Sample {
+    /// Bytes the sample takes in a DATA payload after the read's `BaseObjectRequest`.
+    pub fn wire_size(&self) -> usize {
+        match self {
+            Self::Data(d) => d.len(),
+            Self::Request { data, .. } => SampleIdentity::SIZE + data.len(),
+            Self::Reply { data, .. } => 4 + data.len(),
+        }
+    }
+}
+
+/// Wakes the transport shell when a middleware has new samples on its own (threaded middlewares).
+pub type Waker = Arc<dyn Fn() + Send + Sync>;
+
+/// What the agent core needs from a middleware.
+pub trait Middleware {
+    /// Creates an entity. The core has already applied the creation mode (spec §11) and checked the parent.
+    fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError>;
+
+    /// Whether an existing entity is "the same" as the one `creation` describes (REUSE, spec §7.5).
+    fn matches(&self, creation: &Creation<'_>) -> bool;
+
+    /// Deletes one entity; the core deletes children first.
+    fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError>;
+
+    /// Forgets everything of a client (after the core deleted its entities one by one).
+    fn delete_client(&mut self, _client: ClientKey) {}
+
+    /// Publishes a sample through a datawriter.
+    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError>;
+
+    /// Sends a request through a requester; replies come back as [`Sample::Reply`] with `request_id`.
+    fn write_request(
+        &mut self,
+        requester: EntityRef,
+        request_id: RequestId,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError>;
+
+    /// Sends a reply through a replier to the request identified by `identity`.
+    fn write_reply(
+        &mut self,
+        replier: EntityRef,
+        identity: &SampleIdentity,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError>;
+
+    /// A read task starts on a datareader, requester or replier.
+    fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError>;
+
+    /// The read task of `reader` ended (cancelled, finished, entity deleted).
+    fn stop_reading(&mut self, _reader: EntityRef) {}
+
+    /// Size ([`Sample::wire_size`]) of the next sample `reader` would take, without taking it.
+    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize>;
+
+    /// Takes the next sample for `reader`.
+    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample>;
+
+    /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
+    fn set_waker(&mut self, _waker: Waker) {}
+}
+
+impl<M: Middleware + ?Sized> Middleware for Box<M> {
+    fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
+        (**self).create(creation)
+    }
+    fn matches(&self, creation: &Creation<'_>) -> bool {
+        (**self).matches(creation)
+    }
+    fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
+        (**self).delete(entity)
+    }
+    fn delete_client(&mut self, client: ClientKey) {
+        (**self).delete_client(client);
+    }
+    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
+        (**self).write_data(writer, data)
+    }
+    fn write_request(&mut self, requester: EntityRef, id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
+        (**self).write_request(requester, id, data)
+    }
+    fn write_reply(&mut self, replier: EntityRef, identity: &SampleIdentity, data: &[u8]) -> Result<(), MiddlewareError> {
+        (**self).write_reply(replier, identity, data)
+    }
+    fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
+        (**self).start_reading(reader)
+    }
+    fn stop_reading(&mut self, reader: EntityRef) {
+        (**self).stop_reading(reader);
+    }
+    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
+        (**self).next_sample_size(reader)
+    }
+    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
+        (**self).take_sample(reader)
+    }
+    fn set_waker(&mut self, waker: Waker) {
+        (**self).set_waker(waker);
+    }
+}
+
+/// The middlewares of the command line's `-m`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MiddlewareKind {
+    /// Centralized data: routing between the agent's own clients.
+    Ced,
+    /// Fast DDS (eProsima's default); not implemented yet.
+    Dds,
+    /// Fast DDS RTPS layer; not implemented yet.
+    Rtps,
+}
+
+/// Error for middlewares this build does not have.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("middleware `{0}` is not implemented yet; run the agent with `-m ced` (in-agent routing between clients)")]
+pub struct UnsupportedMiddleware(pub &'static str);
+
+impl MiddlewareKind {
+    /// Its command-line name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Ced => "ced",
+            Self::Dds => "dds",
+            Self::Rtps => "rtps",
+        }
+    }
+
+    /// Builds the middleware, or says why not.
+    pub fn build(
+        self,
+        profiles: Arc<dyn ProfileSource>,
+    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+        match self {
+            Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
+            Self::Dds | Self::Rtps => Err(UnsupportedMiddleware(self.name())),
+        }
+    }
+}

@@ -1,0 +1,287 @@
+//! Test support: capture files, a core harness that plays well-behaved clients, owned decoding of the
+//! agent's messages.
+#![allow(dead_code)]
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use xrce_agent::core::{AgentCore, CoreConfig};
+use xrce_agent::middleware::ced::Ced;
+use xrce_agent::middleware::describe::FallbackProfiles;
+use xrce_proto::submessage::AckNack;
+use xrce_proto::{message, MessageHeader, StreamId, Submessage};
+
+/// One packet of a capture.
+#[derive(Debug, Clone)]
+pub struct Packet {
+    pub t: f64,
+    pub to_agent: bool,
+    pub port: u16,
+    pub data: Vec<u8>,
+}
+
+pub fn captures_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/vectors/captures")
+}
+
+/// Parses a `captures/*.txt` file.
+pub fn load_capture(name: &str) -> Vec<Packet> {
+    let text = std::fs::read_to_string(captures_dir().join(name)).expect("capture file");
+    let mut out: Vec<Packet> = Vec::new();
+    for line in text.lines() {
+        let trimmed = line.trim();
+        if trimmed.starts_with('#') || trimmed.is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = trimmed.split_whitespace().collect();
+        let is_header = fields.len() >= 4 && fields[3].starts_with("len=") && (fields[2].contains("->"));
+        if is_header {
+            let dir = fields[2];
+            let to_agent = dir.starts_with('C');
+            let port: u16 = dir
+                .split(|c| c == '(' || c == ')')
+                .nth(1)
+                .and_then(|p| p.parse().ok())
+                .unwrap_or(0);
+            out.push(Packet { t: fields[1].parse().unwrap_or(0.0), to_agent, port, data: Vec::new() });
+        } else if let Some(last) = out.last_mut() {
+            for byte in fields {
+                last.data.push(u8::from_str_radix(byte, 16).expect("hex byte"));
+            }
+        }
+    }
+    out
+}
+
+/// An agent message decoded into owned values.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Out {
+    StatusAgent { status: u8 },
+    Status { request: u16, object: u16, status: u8 },
+    AckNack { first: u16, bitmap: u16, stream: u8 },
+    Heartbeat { first: u16, last: u16, stream: u8 },
+    Data { request: u16, object: u16, data: Vec<u8> },
+    Info { implementation_status: u8, request: u16 },
+    TimestampReply { originate: (i32, u32) },
+    GetInfo,
+    Other(u8),
+}
+
+/// A received agent message: header and its submessages.
+#[derive(Debug, Clone)]
+pub struct Received {
+    pub header: MessageHeader,
+    pub subs: Vec<Out>,
+    pub raw: Vec<u8>,
+}
+
+pub fn decode_owned(bytes: &[u8]) -> (MessageHeader, Vec<Out>) {
+    let (header, subs) = message::parse(bytes).expect("agent header");
+    let mut out = Vec::new();
+    for raw in subs {
+        let raw = raw.expect("agent submessage framing");
+        let sub = raw.decode().expect("agent submessage");
+        out.push(match sub {
+            Submessage::StatusAgent(s) => Out::StatusAgent { status: s.result.status.0 },
+            Submessage::Status(s) => Out::Status {
+                request: s.related_request.request_id.0,
+                object: s.related_request.object_id.raw(),
+                status: s.result.status.0,
+            },
+            Submessage::AckNack(a) => Out::AckNack { first: a.first_unacked_seq_num, bitmap: a.bitmap(), stream: a.stream_id },
+            Submessage::Heartbeat(h) => {
+                Out::Heartbeat { first: h.first_unacked_seq_nr, last: h.last_unacked_seq_nr, stream: h.stream_id }
+            }
+            Submessage::Data(d) => {
+                Out::Data { request: d.request.request_id.0, object: d.request.object_id.raw(), data: d.data.to_vec() }
+            }
+            Submessage::Info(i) => Out::Info {
+                implementation_status: i.reply.result.implementation_status,
+                request: i.reply.related_request.request_id.0,
+            },
+            Submessage::TimestampReply(t) => {
+                Out::TimestampReply { originate: (t.originate_timestamp.seconds, t.originate_timestamp.nanoseconds) }
+            }
+            Submessage::GetInfo(_) => Out::GetInfo,
+            Submessage::Fragment { .. } => Out::Other(13),
+            other => Out::Other(other.id()),
+        });
+    }
+    (header, out)
+}
+
+/// Per-client state of the simulated client: reliable input streams with reassembly.
+#[derive(Debug, Default)]
+struct SimStream {
+    next: u16,
+    stored: BTreeMap<u16, Vec<u8>>,
+    fragments: Vec<u8>,
+}
+
+pub type TestCore = AgentCore<u16, Ced>;
+
+pub fn new_core() -> TestCore {
+    AgentCore::new(CoreConfig::default(), Ced::new(Arc::new(FallbackProfiles)))
+}
+
+/// Drives a core as well-behaved clients would: acknowledges the agent's reliable messages (unless told not
+/// to), reassembles fragments, and records what each client receives in order.
+pub struct Harness {
+    pub core: TestCore,
+    pub now: Instant,
+    pub auto_ack: bool,
+    streams: HashMap<(u16, u8), SimStream>,
+    /// Everything each port received, in processing order (reliable messages in sequence order,
+    /// fragmented ones reassembled).
+    pub received: HashMap<u16, Vec<Received>>,
+}
+
+impl Harness {
+    pub fn new() -> Self {
+        Self::with_core(new_core())
+    }
+
+    pub fn with_core(core: TestCore) -> Self {
+        Self { core, now: Instant::now(), auto_ack: true, streams: HashMap::new(), received: HashMap::new() }
+    }
+
+    /// Feeds one datagram from `port` and runs the exchange until quiet.
+    pub fn send(&mut self, port: u16, bytes: &[u8]) {
+        self.core.handle_datagram(port, bytes, self.now);
+        self.drain();
+    }
+
+    /// Advances time by `d`, running timers.
+    pub fn advance(&mut self, d: Duration) {
+        let end = self.now + d;
+        loop {
+            match self.core.poll_timeout() {
+                Some(t) if t <= end => {
+                    self.now = t.max(self.now);
+                    self.core.handle_timeout(self.now);
+                    self.drain();
+                }
+                _ => break,
+            }
+        }
+        self.now = end;
+        self.core.handle_timeout(self.now);
+        self.drain();
+    }
+
+    pub fn drain(&mut self) {
+        let mut acks: Vec<(u16, Vec<u8>)> = Vec::new();
+        while let Some(t) = self.core.poll_transmit() {
+            let port = t.to;
+            let (header, _) = decode_owned(&t.data);
+            if header.stream_id.is_reliable() {
+                let key = (port, header.stream_id.0);
+                let s = self.streams.entry(key).or_default();
+                let seq = header.sequence_nr;
+                if seq.wrapping_sub(s.next) < 0x8000 {
+                    s.stored.insert(seq, t.data.clone());
+                }
+                let mut ready = Vec::new();
+                while let Some(msg) = s.stored.remove(&s.next) {
+                    s.next = s.next.wrapping_add(1);
+                    ready.push(msg);
+                }
+                for msg in ready {
+                    self.deliver_reliable(port, header, msg);
+                }
+                if self.auto_ack {
+                    let s = self.streams.get(&key).expect("stream");
+                    let ack = AckNack { first_unacked_seq_num: s.next, nack_bitmap: [0, 0], stream_id: header.stream_id.0 };
+                    let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..header };
+                    let mut buf = [0u8; 32];
+                    let n = message::encode_single(&mut buf, &h, &Submessage::AckNack(ack), xrce_proto::Endianness::Little)
+                        .expect("encode ack");
+                    acks.push((port, buf[..n].to_vec()));
+                }
+            } else {
+                let (header, subs) = decode_owned(&t.data);
+                self.received.entry(port).or_default().push(Received { header, subs, raw: t.data });
+            }
+            if self.core.pending_transmits() == 0 && !acks.is_empty() {
+                for (port, ack) in acks.drain(..) {
+                    self.core.handle_datagram(port, &ack, self.now);
+                }
+            }
+        }
+    }
+
+    fn deliver_reliable(&mut self, port: u16, header: MessageHeader, msg: Vec<u8>) {
+        let h = header.size();
+        let is_fragment = msg.get(h) == Some(&13);
+        if is_fragment {
+            let flags = msg[h + 1];
+            let s = self.streams.get_mut(&(port, header.stream_id.0)).expect("stream");
+            s.fragments.extend_from_slice(&msg[h + 4..]);
+            if flags & 0x02 != 0 {
+                let mut whole = msg[..h].to_vec();
+                whole.append(&mut s.fragments);
+                let (hh, subs) = decode_owned(&whole);
+                self.received.entry(port).or_default().push(Received { header: hh, subs, raw: whole });
+            }
+            return;
+        }
+        let (hh, subs) = decode_owned(&msg);
+        self.received.entry(port).or_default().push(Received { header: hh, subs, raw: msg });
+    }
+
+    /// All submessages `port` received.
+    pub fn outs(&self, port: u16) -> Vec<Out> {
+        self.received.get(&port).map(|v| v.iter().flat_map(|r| r.subs.clone()).collect()).unwrap_or_default()
+    }
+
+    /// STATUS replies `port` received: (request id, status).
+    pub fn statuses(&self, port: u16) -> Vec<(u16, u8)> {
+        self.outs(port)
+            .into_iter()
+            .filter_map(|o| match o {
+                Out::Status { request, status, .. } => Some((request, status)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// DATA payloads `port` received.
+    pub fn data(&self, port: u16) -> Vec<Vec<u8>> {
+        self.outs(port)
+            .into_iter()
+            .filter_map(|o| match o {
+                Out::Data { data, .. } => Some(data),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Replays every client packet of a capture in order; time follows the capture.
+    pub fn replay(&mut self, packets: &[Packet]) {
+        let start = self.now;
+        for p in packets.iter().filter(|p| p.to_agent) {
+            let at = start + Duration::from_secs_f64(p.t);
+            if at > self.now {
+                let d = at - self.now;
+                self.advance(d);
+            }
+            self.send(p.port, &p.data);
+        }
+    }
+}
+
+/// A CREATE_CLIENT for `key`/`session` with mtu 508.
+pub fn create_client_msg(key: u32, session: u8) -> Vec<u8> {
+    let header = if session < 0x80 {
+        MessageHeader::new(0x00, StreamId::NONE, 0, xrce_proto::ClientKey::from_u32(key))
+    } else {
+        MessageHeader::new(0x80, StreamId::NONE, 0, xrce_proto::ClientKey::INVALID)
+    };
+    let rep = xrce_proto::object::ClientRepresentation::new(xrce_proto::ClientKey::from_u32(key), session, 508);
+    let mut buf = [0u8; 64];
+    let n = message::encode_single(&mut buf, &header, &Submessage::CreateClient(rep), xrce_proto::Endianness::Little)
+        .expect("encode");
+    buf[..n].to_vec()
+}

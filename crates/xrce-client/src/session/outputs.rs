@@ -1,0 +1,453 @@
+//! Writing into output streams: entity creation (XML, reference, binary), deletion, read requests, data.
+//!
+//! Every `buffer_*` function writes one submessage into a stream and returns its request id; nothing is sent
+//! until the session flushes the streams. Submessages are written as lists of byte parts so that a large XML
+//! string or sample is copied once, straight into the stream (and fragmented there when it does not fit one
+//! message), without any intermediate buffer.
+
+use crate::error::{Error, Result};
+use crate::object::{QoS, REPLACE, REUSE};
+use crate::stream::{OutputBestEffort, OutputReliable};
+use xrce_proto::cdr::{Endianness, Writer};
+use xrce_proto::object::{
+    BinaryObject, DataReaderBinary, DataReaderQos, DataWriterBinary, DataWriterQos, EntityLink, EntityVariant,
+    ParticipantBinary, PubSubBinary, RequesterBinary, TopicBinary,
+};
+use xrce_proto::submessage::{flag, id, DataDeliveryControl};
+use xrce_proto::{ObjectId, ObjectVariant, Representation, SampleIdentity, StreamId, StreamKind};
+
+/// First request id the C client hands out (1–9 are reserved).
+pub(crate) const FIRST_REQUEST_ID: u16 = 10;
+
+/// The output side of a session, lent to callbacks so they can answer (e.g. a replier writing its reply from
+/// `on_request`), and used by [`crate::WriteAccess`].
+#[derive(Debug)]
+pub struct Outputs<'s, 'a> {
+    pub(crate) last_request_id: &'s mut u16,
+    pub(crate) best_effort: &'s mut [Option<OutputBestEffort<'a>>],
+    pub(crate) reliable: &'s mut [Option<OutputReliable<'a>>],
+}
+
+/// Space reserved in an output stream for a sample serialized in place (`uxr_prepare_output_stream`).
+#[derive(Debug)]
+pub struct Prepared<'s> {
+    /// Request id of the WRITE_DATA.
+    pub request_id: u16,
+    buf: &'s mut [u8],
+}
+
+impl Prepared<'_> {
+    /// The `data_size` bytes to serialize into, zero-filled; all of them are sent whatever is written.
+    pub fn buffer(&mut self) -> &mut [u8] {
+        self.buf
+    }
+}
+
+/// How an entity is described in a CREATE.
+#[derive(Debug, Clone, Copy)]
+enum Repr<'r> {
+    Reference(&'r str),
+    Xml(&'r str),
+    Binary(BinaryObject<'r>),
+}
+
+fn mode_flags(mode: u8) -> u8 {
+    mode & (REUSE | REPLACE)
+}
+
+fn subheader(sid: u8, flags: u8, len: usize) -> Result<[u8; 4]> {
+    let l = u16::try_from(len).map_err(|_| Error::TooLarge)?.to_le_bytes();
+    Ok([sid, flags | flag::ENDIANNESS, l[0], l[1]])
+}
+
+fn base(request_id: u16, object: ObjectId) -> [u8; 4] {
+    let r = request_id.to_be_bytes();
+    [r[0], r[1], object.0[0], object.0[1]]
+}
+
+fn encode_sample_identity(s: &SampleIdentity) -> [u8; 24] {
+    let mut out = [0u8; 24];
+    let mut w = Writer::new(&mut out, Endianness::Little);
+    w.write(s);
+    out
+}
+
+impl<'s, 'a> Outputs<'s, 'a> {
+    /// Hands out the next request id (10, 11, … 65535, 10, …).
+    fn next_request_id(&mut self) -> u16 {
+        let next = request_after(*self.last_request_id);
+        *self.last_request_id = next;
+        next
+    }
+
+    /// Runs `f` with a fresh request id; gives the id back when `f` fails so ids stay consecutive.
+    fn with_request(&mut self, f: impl FnOnce(&mut Self, u16) -> Result<()>) -> Result<u16> {
+        let previous = *self.last_request_id;
+        let request = self.next_request_id();
+        match f(self, request) {
+            Ok(()) => Ok(request),
+            Err(e) => {
+                *self.last_request_id = previous;
+                Err(e)
+            }
+        }
+    }
+
+    fn reliable_mut(&mut self, stream: StreamId) -> Result<&mut OutputReliable<'a>> {
+        match self.reliable.get_mut(usize::from(stream.index())) {
+            Some(Some(s)) if stream.kind() == StreamKind::Reliable => Ok(s),
+            _ => Err(Error::UnknownStream),
+        }
+    }
+
+    /// Writes a submessage given as parts (its header first) into `stream`.
+    pub(crate) fn write_parts(&mut self, stream: StreamId, parts: &[&[u8]]) -> Result<()> {
+        match stream.kind() {
+            StreamKind::BestEffort => match self.best_effort.get_mut(usize::from(stream.index())) {
+                Some(Some(s)) => s.write_parts(parts),
+                _ => Err(Error::UnknownStream),
+            },
+            StreamKind::Reliable => self.reliable_mut(stream)?.write_parts(parts),
+            StreamKind::None => Err(Error::UnknownStream),
+        }
+    }
+
+    fn create(&mut self, stream: StreamId, object: ObjectId, link: EntityLink, repr: Repr<'_>, mode: u8) -> Result<u16> {
+        let kind = object.kind();
+        self.with_request(|out, request| match repr {
+            Repr::Reference(s) | Repr::Xml(s) => {
+                let format = if matches!(repr, Repr::Xml(_)) { 0x02 } else { 0x01 };
+                let string_len = u32::try_from(s.len() + 1).map_err(|_| Error::TooLarge)?.to_le_bytes();
+                let b = base(request, object);
+                let prefix = [
+                    b[0], b[1], b[2], b[3], kind as u8, format, 0, 0, string_len[0], string_len[1], string_len[2],
+                    string_len[3],
+                ];
+                // After the string (NUL included) at payload offset 12 + len + 1 comes the link.
+                let end = 12 + s.len() + 1;
+                let mut suffix = [0u8; 4];
+                let suffix_len = match link {
+                    EntityLink::Domain(d) => {
+                        let pad = end % 2;
+                        if let Some(dst) = suffix.get_mut(1 + pad..3 + pad) {
+                            dst.copy_from_slice(&d.to_le_bytes());
+                        }
+                        3 + pad
+                    }
+                    EntityLink::Parent(p) => {
+                        suffix[1] = p.0[0];
+                        suffix[2] = p.0[1];
+                        3
+                    }
+                };
+                let suffix = suffix.get(..suffix_len).unwrap_or(&[]);
+                let len = prefix.len() + s.len() + suffix.len();
+                let head = subheader(id::CREATE, mode_flags(mode), len)?;
+                out.write_parts(stream, &[&head, &prefix, s.as_bytes(), suffix])
+            }
+            Repr::Binary(blob) => {
+                // Binary blobs are small (names and QoS flags): encoded on the stack at payload offset 4 so CDR
+                // alignment matches the real position in the message.
+                let mut scratch = [0u8; 320];
+                let variant = ObjectVariant::Entity(EntityVariant { kind, representation: Representation::Binary(blob), link });
+                let mut w = Writer::with_origin(&mut scratch, 4, 0, Endianness::Little);
+                w.write(&variant);
+                let end = w.finish().map_err(|e| match e {
+                    xrce_proto::cdr::Error::BufferTooSmall { .. } => Error::TooLarge,
+                    other => Error::Encode(other),
+                })?;
+                let body = scratch.get(4..end).ok_or(Error::TooLarge)?;
+                let head = subheader(id::CREATE, mode_flags(mode), 4 + body.len())?;
+                out.write_parts(stream, &[&head, &base(request, object), body])
+            }
+        })
+    }
+
+    // ---- entities by XML -------------------------------------------------------------------------------
+
+    /// `uxr_buffer_create_participant_xml`.
+    pub fn buffer_create_participant_xml(&mut self, stream: StreamId, object: ObjectId, domain: u16, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_topic_xml`.
+    pub fn buffer_create_topic_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_publisher_xml`.
+    pub fn buffer_create_publisher_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_subscriber_xml`.
+    pub fn buffer_create_subscriber_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_datawriter_xml`.
+    pub fn buffer_create_datawriter_xml(&mut self, stream: StreamId, object: ObjectId, publisher: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(publisher), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_datareader_xml`.
+    pub fn buffer_create_datareader_xml(&mut self, stream: StreamId, object: ObjectId, subscriber: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(subscriber), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_requester_xml`.
+    pub fn buffer_create_requester_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+    }
+
+    /// `uxr_buffer_create_replier_xml`.
+    pub fn buffer_create_replier_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+    }
+
+    // ---- entities by reference -------------------------------------------------------------------------
+
+    /// `uxr_buffer_create_participant_ref`. The C function has no domain argument and sends domain 0.
+    pub fn buffer_create_participant_ref(&mut self, stream: StreamId, object: ObjectId, domain: u16, reference: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Reference(reference), mode)
+    }
+
+    /// `uxr_buffer_create_topic_ref`.
+    pub fn buffer_create_topic_ref(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
+    }
+
+    /// `uxr_buffer_create_datawriter_ref`.
+    pub fn buffer_create_datawriter_ref(&mut self, stream: StreamId, object: ObjectId, publisher: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(publisher), Repr::Reference(reference), mode)
+    }
+
+    /// `uxr_buffer_create_datareader_ref`.
+    pub fn buffer_create_datareader_ref(&mut self, stream: StreamId, object: ObjectId, subscriber: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(subscriber), Repr::Reference(reference), mode)
+    }
+
+    /// `uxr_buffer_create_requester_ref`.
+    pub fn buffer_create_requester_ref(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
+    }
+
+    /// `uxr_buffer_create_replier_ref`.
+    pub fn buffer_create_replier_ref(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
+    }
+
+    // ---- entities by binary ----------------------------------------------------------------------------
+
+    /// `uxr_buffer_create_participant_bin`: the name travels as the QoS profile reference, as in the C client.
+    pub fn buffer_create_participant_bin(&mut self, stream: StreamId, object: ObjectId, domain: u16, name: Option<&str>, mode: u8) -> Result<u16> {
+        let blob = BinaryObject::Participant(ParticipantBinary { domain_reference: None, qos_profile_reference: name });
+        self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_topic_bin`.
+    pub fn buffer_create_topic_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, topic_name: &str, type_name: &str, mode: u8) -> Result<u16> {
+        let blob = BinaryObject::Topic(TopicBinary { topic_name, type_reference: None, type_name: Some(type_name) });
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_publisher_bin`: no name, no QoS (the agent and the C client disagree on its layout).
+    pub fn buffer_create_publisher_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, mode: u8) -> Result<u16> {
+        let blob = BinaryObject::Publisher(PubSubBinary::default());
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_subscriber_bin`: no name, no QoS, as the C client.
+    pub fn buffer_create_subscriber_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, mode: u8) -> Result<u16> {
+        let blob = BinaryObject::Subscriber(PubSubBinary::default());
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_datawriter_bin`.
+    pub fn buffer_create_datawriter_bin(&mut self, stream: StreamId, object: ObjectId, publisher: ObjectId, topic: ObjectId, qos: QoS, mode: u8) -> Result<u16> {
+        let qos = Some(DataWriterQos { base: qos.endpoint(), ownership_strength: None });
+        let blob = BinaryObject::DataWriter(DataWriterBinary { topic_id: topic, qos });
+        self.create(stream, object, EntityLink::Parent(publisher), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_datareader_bin`.
+    pub fn buffer_create_datareader_bin(&mut self, stream: StreamId, object: ObjectId, subscriber: ObjectId, topic: ObjectId, qos: QoS, mode: u8) -> Result<u16> {
+        let qos = Some(DataReaderQos { base: qos.endpoint(), timebasedfilter_msec: None, contentbased_filter: None });
+        let blob = BinaryObject::DataReader(DataReaderBinary { topic_id: topic, qos });
+        self.create(stream, object, EntityLink::Parent(subscriber), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_requester_bin`. The blob has no QoS field; `qos` is accepted for parity and unused,
+    /// as in the C client.
+    #[allow(clippy::too_many_arguments)]
+    pub fn buffer_create_requester_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, service: &ServiceNames<'_>, _qos: QoS, mode: u8) -> Result<u16> {
+        let blob = BinaryObject::Requester(service.binary());
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+    }
+
+    /// `uxr_buffer_create_replier_bin`; see [`buffer_create_requester_bin`](Self::buffer_create_requester_bin).
+    pub fn buffer_create_replier_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, service: &ServiceNames<'_>, _qos: QoS, mode: u8) -> Result<u16> {
+        let blob = BinaryObject::Replier(service.binary());
+        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+    }
+
+    // ---- deletion, read access -------------------------------------------------------------------------
+
+    /// `uxr_buffer_delete_entity`.
+    pub fn buffer_delete_entity(&mut self, stream: StreamId, object: ObjectId) -> Result<u16> {
+        self.with_request(|out, request| {
+            let head = subheader(id::DELETE, 0, 4)?;
+            out.write_parts(stream, &[&head, &base(request, object)])
+        })
+    }
+
+    /// `uxr_buffer_request_data`: ask `reader` (a datareader, requester or replier) to deliver on input stream
+    /// `data_stream`; `control` `None` delivers one sample.
+    pub fn buffer_request_data(&mut self, stream: StreamId, reader: ObjectId, data_stream: StreamId, control: Option<&DataDeliveryControl>) -> Result<u16> {
+        self.read_data(stream, reader, data_stream.0, control)
+    }
+
+    /// `uxr_buffer_cancel_data`: a READ_DATA towards stream 0 with an all-zero delivery control.
+    pub fn buffer_cancel_data(&mut self, stream: StreamId, reader: ObjectId) -> Result<u16> {
+        self.read_data(stream, reader, 0, Some(&DataDeliveryControl::default()))
+    }
+
+    fn read_data(&mut self, stream: StreamId, reader: ObjectId, data_stream: u8, control: Option<&DataDeliveryControl>) -> Result<u16> {
+        self.with_request(|out, request| {
+            let b = base(request, reader);
+            let mut body = [b[0], b[1], b[2], b[3], data_stream, 0, 0, u8::from(control.is_some()), 0, 0, 0, 0, 0, 0, 0, 0];
+            let len = if let Some(c) = control {
+                for (i, v) in [c.max_samples, c.max_elapsed_time, c.max_bytes_per_second, c.min_pace_period].into_iter().enumerate() {
+                    if let Some(dst) = body.get_mut(8 + 2 * i..10 + 2 * i) {
+                        dst.copy_from_slice(&v.to_le_bytes());
+                    }
+                }
+                16
+            } else {
+                8
+            };
+            let head = subheader(id::READ_DATA, 0, len)?;
+            out.write_parts(stream, &[&head, body.get(..len).unwrap_or(&[])])
+        })
+    }
+
+    // ---- write access ----------------------------------------------------------------------------------
+
+    /// `uxr_buffer_topic`: a serialized sample for datawriter `writer`. Fragmented over several messages on a
+    /// reliable stream when larger than one.
+    pub fn buffer_topic(&mut self, stream: StreamId, writer: ObjectId, data: &[u8]) -> Result<u16> {
+        self.with_request(|out, request| {
+            let head = subheader(id::WRITE_DATA, 0, 4 + data.len())?;
+            out.write_parts(stream, &[&head, &base(request, writer), data])
+        })
+    }
+
+    /// `uxr_buffer_request`: a serialized request for `requester`; the returned id comes back as `reply_id` in
+    /// `on_reply`.
+    pub fn buffer_request(&mut self, stream: StreamId, requester: ObjectId, data: &[u8]) -> Result<u16> {
+        self.buffer_topic(stream, requester, data)
+    }
+
+    /// `uxr_buffer_reply`: a serialized reply from `replier` to the request identified by `sample_id` (as given
+    /// to `on_request`).
+    pub fn buffer_reply(&mut self, stream: StreamId, replier: ObjectId, sample_id: &SampleIdentity, data: &[u8]) -> Result<u16> {
+        let identity = encode_sample_identity(sample_id);
+        self.with_request(|out, request| {
+            let head = subheader(id::WRITE_DATA, 0, 4 + SampleIdentity::SIZE + data.len())?;
+            out.write_parts(stream, &[&head, &base(request, replier), &identity, data])
+        })
+    }
+
+    /// `uxr_prepare_output_stream`: reserves `size` bytes for a sample of `entity` to be serialized in place.
+    /// The sample must fit one message: [`Error::TooLarge`] otherwise (use [`buffer_topic`](Self::buffer_topic)
+    /// or `prepare_output_stream_fragmented`).
+    pub fn prepare_output_stream(self, stream: StreamId, entity: ObjectId, size: usize) -> Result<Prepared<'s>> {
+        let head = subheader(id::WRITE_DATA, 0, 4 + size)?;
+        let Outputs { last_request_id, best_effort, reliable } = self;
+        let request = request_after(*last_request_id);
+        let region = reserve_in(best_effort, reliable, stream, 8 + size)?;
+        *last_request_id = request;
+        let (h, data) = region.split_at_mut(8);
+        let r = request.to_be_bytes();
+        h.copy_from_slice(&[head[0], head[1], head[2], head[3], r[0], r[1], entity.0[0], entity.0[1]]);
+        Ok(Prepared { request_id: request, buf: data })
+    }
+
+    /// Starts a continuous fragmented WRITE_DATA of `size` bytes for `entity` on reliable `stream`
+    /// (`uxr_prepare_output_stream_fragmented`); feed it with [`push_fragmented`](Self::push_fragmented).
+    /// A payload over 65535 bytes is announced with length 0, eProsima's write-limit convention.
+    pub fn begin_fragmented(&mut self, stream: StreamId, entity: ObjectId, size: usize) -> Result<u16> {
+        self.with_request(|out, request| {
+            let len = u16::try_from(4 + size).unwrap_or(0).to_le_bytes();
+            let b = base(request, entity);
+            let head = [id::WRITE_DATA, flag::ENDIANNESS, len[0], len[1], b[0], b[1], b[2], b[3]];
+            out.reliable_mut(stream)?.begin_chain(&head, 8 + size)
+        })
+    }
+
+    /// Appends bytes to the continuous fragmented write of `stream`; returns how many were taken (fewer when
+    /// the history is full: flush, let the agent acknowledge, push the rest).
+    pub fn push_fragmented(&mut self, stream: StreamId, data: &[u8]) -> Result<usize> {
+        Ok(self.reliable_mut(stream)?.push(data))
+    }
+
+    /// Bytes the continuous fragmented write of `stream` still expects.
+    pub fn fragmented_remaining(&mut self, stream: StreamId) -> Result<usize> {
+        Ok(self.reliable_mut(stream)?.chain_remaining())
+    }
+}
+
+/// Names of a binary requester or replier (`uxr_buffer_create_requester_bin` arguments).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServiceNames<'n> {
+    /// Service name.
+    pub service_name: &'n str,
+    /// Request type name.
+    pub request_type: &'n str,
+    /// Reply type name.
+    pub reply_type: &'n str,
+    /// Request topic name.
+    pub request_topic_name: &'n str,
+    /// Reply topic name.
+    pub reply_topic_name: &'n str,
+}
+
+impl<'n> ServiceNames<'n> {
+    fn binary(&self) -> RequesterBinary<'n> {
+        RequesterBinary {
+            service_name: self.service_name,
+            request_type: self.request_type,
+            reply_type: self.reply_type,
+            request_topic_name: Some(self.request_topic_name),
+            reply_topic_name: Some(self.reply_topic_name),
+        }
+    }
+}
+
+/// The request id after `id`: 10, 11, … 65535, then 10 again.
+const fn request_after(id: u16) -> u16 {
+    match id.checked_add(1) {
+        Some(n) if n >= FIRST_REQUEST_ID => n,
+        _ => FIRST_REQUEST_ID,
+    }
+}
+
+/// Reserves `total` bytes for one submessage in one message of `stream`.
+fn reserve_in<'s, 'a>(
+    best_effort: &'s mut [Option<OutputBestEffort<'a>>],
+    reliable: &'s mut [Option<OutputReliable<'a>>],
+    stream: StreamId,
+    total: usize,
+) -> Result<&'s mut [u8]> {
+    match stream.kind() {
+        StreamKind::BestEffort => match best_effort.get_mut(usize::from(stream.index())) {
+            Some(Some(s)) => s.reserve(total),
+            _ => Err(Error::UnknownStream),
+        },
+        StreamKind::Reliable => match reliable.get_mut(usize::from(stream.index())) {
+            Some(Some(s)) => s.reserve(total)?.ok_or(Error::TooLarge),
+            _ => Err(Error::UnknownStream),
+        },
+        StreamKind::None => Err(Error::UnknownStream),
+    }
+}

@@ -1,0 +1,247 @@
+//! Reliable input stream (spec §9.4): in-order delivery over `history` slots, ACKNACK contents, reassembly of
+//! fragmented messages.
+
+use super::{fragment_info, seq, slot_size, SLOT_LEN_WORD, SUBHEADER};
+use crate::error::{Error, Result};
+use xrce_proto::MessageHeader;
+
+/// What [`InputReliable::receive`] decided for a message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Received {
+    /// The next expected, unfragmented message: process it from the caller's buffer, then call
+    /// [`InputReliable::handled`].
+    Now,
+    /// Stored for later (out of order, or a fragment).
+    Stored,
+    /// Outside the window, a duplicate, or too big for a slot.
+    Rejected,
+}
+
+/// What is ready to be processed after the last handled message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Ready {
+    /// A whole stored message at this sequence number.
+    Message(u16),
+    /// A complete run of fragments.
+    Fragments {
+        /// First fragment's sequence number.
+        first: u16,
+        /// Number of messages in the run.
+        count: u16,
+    },
+    /// A run of fragments interrupted by an unfragmented message: dropped.
+    Broken {
+        /// First fragment's sequence number.
+        first: u16,
+        /// Number of messages dropped.
+        count: u16,
+    },
+}
+
+/// A reliable input stream over a caller's buffer split into `history` slots.
+#[derive(Debug)]
+pub struct InputReliable<'a> {
+    buf: &'a mut [u8],
+    history: u16,
+    slot: usize,
+    last_handled: u16,
+    last_announced: u16,
+    ack_pending: bool,
+}
+
+impl<'a> InputReliable<'a> {
+    /// A stream storing up to `history` messages in `buf` (history a power of two dividing its length).
+    pub fn new(buf: &'a mut [u8], history: usize) -> Result<Self> {
+        let slot = slot_size(buf.len(), history).ok_or(Error::InvalidHistory)?;
+        let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
+        let mut s =
+            Self { buf, history, slot, last_handled: seq::INIT, last_announced: seq::INIT, ack_pending: false };
+        s.reset();
+        Ok(s)
+    }
+
+    /// Forgets everything stored and restarts numbering.
+    pub fn reset(&mut self) {
+        for i in 0..usize::from(self.history) {
+            self.set_len_at(i, 0);
+        }
+        self.last_handled = seq::INIT;
+        self.last_announced = seq::INIT;
+        self.ack_pending = false;
+    }
+
+    /// Largest message a slot holds.
+    pub const fn slot_capacity(&self) -> usize {
+        self.slot - SLOT_LEN_WORD
+    }
+
+    fn index(&self, seq_nr: u16) -> usize {
+        usize::from(seq_nr & (self.history - 1))
+    }
+
+    fn len_at(&self, index: usize) -> usize {
+        let at = index * self.slot;
+        match self.buf.get(at..at + 2) {
+            Some(&[lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
+            _ => 0,
+        }
+    }
+
+    fn set_len_at(&mut self, index: usize, len: usize) {
+        let at = index * self.slot;
+        if let Some(dst) = self.buf.get_mut(at..at + 2) {
+            dst.copy_from_slice(&u16::try_from(len).unwrap_or(0).to_le_bytes());
+        }
+    }
+
+    fn len_of(&self, seq_nr: u16) -> usize {
+        self.len_at(self.index(seq_nr))
+    }
+
+    fn in_window(&self, seq_nr: u16) -> bool {
+        let d = seq_nr.wrapping_sub(self.last_handled);
+        d != 0 && d <= self.history
+    }
+
+    /// Takes message `seq_nr` (the whole message, header included) and says what to do with it. Whatever the
+    /// outcome an ACKNACK becomes due, as with the C client.
+    pub fn receive(&mut self, seq_nr: u16, msg: &[u8]) -> Received {
+        self.ack_pending = true;
+        self.last_announced = seq::max(self.last_announced, seq_nr);
+        if !self.in_window(seq_nr) {
+            return Received::Rejected;
+        }
+        let fragment = fragment_info(msg).is_some();
+        if seq_nr == self.last_handled.wrapping_add(1) && !fragment {
+            return Received::Now;
+        }
+        if self.len_of(seq_nr) != 0 || msg.len() > self.slot_capacity() || msg.is_empty() {
+            return Received::Rejected;
+        }
+        let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
+        match self.buf.get_mut(at..at + msg.len()) {
+            Some(dst) => dst.copy_from_slice(msg),
+            None => return Received::Rejected,
+        }
+        self.set_len_at(self.index(seq_nr), msg.len());
+        Received::Stored
+    }
+
+    /// Records that the message [`Received::Now`] reported was processed.
+    pub fn handled(&mut self, seq_nr: u16) {
+        self.last_handled = seq_nr;
+    }
+
+    /// A HEARTBEAT for this stream: the peer has sent up to `last_unacked`; an ACKNACK becomes due.
+    pub fn on_heartbeat(&mut self, last_unacked: u16) {
+        self.last_announced = seq::max(self.last_announced, last_unacked);
+        self.ack_pending = true;
+    }
+
+    /// Whether an ACKNACK should be sent.
+    pub const fn ack_pending(&self) -> bool {
+        self.ack_pending
+    }
+
+    /// The ACKNACK to send now (`first_unacked`, bitmap as a u16 whose bit i is `first_unacked + i`); clears the
+    /// pending flag.
+    pub fn acknack(&mut self) -> (u16, u16) {
+        self.ack_pending = false;
+        let mut first = self.last_handled.wrapping_add(1);
+        for _ in 0..self.history {
+            if self.len_of(first) == 0 {
+                break;
+            }
+            first = first.wrapping_add(1);
+        }
+        let mut bitmap = 0u16;
+        for i in 0..16u16 {
+            let s = first.wrapping_add(i);
+            if seq::lt(self.last_announced, s) {
+                break;
+            }
+            if !self.in_window(s) || self.len_of(s) == 0 {
+                bitmap |= 1 << i;
+            }
+        }
+        (first, bitmap)
+    }
+
+    /// What can be processed next, if anything.
+    pub(crate) fn next_ready(&self) -> Option<Ready> {
+        let first = self.last_handled.wrapping_add(1);
+        let msg = self.message(first)?;
+        if fragment_info(msg).is_none() {
+            return Some(Ready::Message(first));
+        }
+        let mut s = first;
+        for count in 1..=self.history {
+            match fragment_info(self.message(s)?) {
+                Some(true) => return Some(Ready::Fragments { first, count }),
+                Some(false) => {}
+                None => return Some(Ready::Broken { first, count: count - 1 }),
+            }
+            s = s.wrapping_add(1);
+        }
+        None
+    }
+
+    /// The stored message `seq_nr`, if any.
+    pub(crate) fn message(&self, seq_nr: u16) -> Option<&[u8]> {
+        let len = self.len_of(seq_nr);
+        if len == 0 || !self.in_window(seq_nr) {
+            return None;
+        }
+        let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
+        self.buf.get(at..at + len)
+    }
+
+    /// Frees the stored messages `first..first+count` and marks them handled.
+    pub(crate) fn release(&mut self, first: u16, count: u16) {
+        for i in 0..count {
+            let index = self.index(first.wrapping_add(i));
+            self.set_len_at(index, 0);
+        }
+        self.last_handled = first.wrapping_add(count).wrapping_sub(1);
+    }
+
+    /// Joins the FRAGMENT payloads of `first..first+count` at the start of the buffer and returns their length.
+    ///
+    /// The slots are rotated so the run is contiguous, then the payloads are moved down in place: no extra
+    /// memory. [`finish_assembly`](Self::finish_assembly) undoes the rotation.
+    pub(crate) fn assemble(&mut self, first: u16, count: u16) -> usize {
+        let shift = self.index(first) * self.slot;
+        self.buf.rotate_left(shift);
+        let mut dest = 0usize;
+        for j in 0..usize::from(count) {
+            let base = j * self.slot;
+            let len = self.len_at(j);
+            let msg_at = base + SLOT_LEN_WORD;
+            let hs = self.buf.get(msg_at).map_or(MessageHeader::MAX_SIZE, |&s| MessageHeader::size_for(s));
+            let sub = msg_at + hs;
+            let sublen = match self.buf.get(sub + 2..sub + 4) {
+                Some(&[lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
+                _ => 0,
+            };
+            let n = sublen.min(len.saturating_sub(hs + SUBHEADER));
+            let from = sub + SUBHEADER;
+            if from + n <= self.buf.len() {
+                self.buf.copy_within(from..from + n, dest);
+                dest += n;
+            }
+        }
+        dest
+    }
+
+    /// The bytes [`assemble`](Self::assemble) joined.
+    pub(crate) fn assembled(&self, len: usize) -> &[u8] {
+        self.buf.get(..len).unwrap_or(&[])
+    }
+
+    /// Restores the slot layout after [`assemble`](Self::assemble) and releases the run.
+    pub(crate) fn finish_assembly(&mut self, first: u16, count: u16) {
+        let shift = self.index(first) * self.slot;
+        self.buf.rotate_right(shift);
+        self.release(first, count);
+    }
+}

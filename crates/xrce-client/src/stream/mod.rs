@@ -1,0 +1,135 @@
+//! Streams (spec §9): best-effort and reliable, input and output, over caller-provided buffers.
+//!
+//! Each stream keeps only counters and a borrowed buffer, so a session never allocates. Reliable streams split
+//! their buffer into `history` slots exactly as eProsima's C client does (a 4-byte length word per slot, the
+//! rest for one message), which keeps our fragmentation byte-identical to the C client's (spec §17.12).
+
+mod input_best_effort;
+mod input_reliable;
+mod output_best_effort;
+mod output_reliable;
+
+pub use input_best_effort::InputBestEffort;
+pub use input_reliable::{InputReliable, Received};
+pub use output_best_effort::OutputBestEffort;
+pub use output_reliable::OutputReliable;
+
+use xrce_proto::submessage::{flag, id};
+use xrce_proto::MessageHeader;
+
+/// Serial-number arithmetic on 16-bit sequence numbers (spec §9.1).
+pub mod seq {
+    /// `a < b` in serial arithmetic: `b` is 1..=32767 ahead of `a`.
+    pub const fn lt(a: u16, b: u16) -> bool {
+        let d = b.wrapping_sub(a);
+        d != 0 && d < 0x8000
+    }
+
+    /// `a <= b` in serial arithmetic.
+    pub const fn le(a: u16, b: u16) -> bool {
+        a == b || lt(a, b)
+    }
+
+    /// The later of two sequence numbers.
+    pub const fn max(a: u16, b: u16) -> u16 {
+        if lt(a, b) {
+            b
+        } else {
+            a
+        }
+    }
+
+    /// Initial value of every "last" counter: the first number used is therefore 0.
+    pub const INIT: u16 = 0xFFFF;
+}
+
+/// Bytes of every slot used for the length word (not on the wire), as in the C client.
+pub(crate) const SLOT_LEN_WORD: usize = 4;
+/// Largest submessage header.
+pub(crate) const SUBHEADER: usize = 4;
+
+/// Rounds `n` up to a multiple of 4 (submessages start 4-aligned from the message start).
+pub(crate) const fn align4(n: usize) -> usize {
+    (n + 3) & !3
+}
+
+/// Checks the history rules of the C API: a power of two that divides the buffer, each slot big enough to
+/// hold a header, a submessage header and some data. Returns the slot size.
+pub(crate) fn slot_size(buffer_len: usize, history: usize) -> Option<usize> {
+    if history == 0 || !history.is_power_of_two() || history > 0x4000 || buffer_len % history != 0 {
+        return None;
+    }
+    let slot = buffer_len / history;
+    (slot >= SLOT_LEN_WORD + MessageHeader::MAX_SIZE + SUBHEADER + 4).then_some(slot)
+}
+
+/// Reads the whole-message bytes of `parts` in order, as if they were one slice.
+pub(crate) struct Parts<'p> {
+    parts: &'p [&'p [u8]],
+    index: usize,
+    offset: usize,
+}
+
+impl<'p> Parts<'p> {
+    pub(crate) const fn new(parts: &'p [&'p [u8]]) -> Self {
+        Self { parts, index: 0, offset: 0 }
+    }
+
+    /// Total length of all parts.
+    pub(crate) fn total(parts: &[&[u8]]) -> usize {
+        parts.iter().map(|p| p.len()).sum()
+    }
+
+    /// Copies the next `dst.len()` bytes (or fewer at the end) into `dst`; returns how many.
+    pub(crate) fn read_into(&mut self, dst: &mut [u8]) -> usize {
+        let mut done = 0;
+        while done < dst.len() {
+            let Some(part) = self.parts.get(self.index) else { break };
+            let src = part.get(self.offset..).unwrap_or(&[]);
+            if src.is_empty() {
+                self.index += 1;
+                self.offset = 0;
+                continue;
+            }
+            let n = src.len().min(dst.len() - done);
+            if let (Some(d), Some(s)) = (dst.get_mut(done..done + n), src.get(..n)) {
+                d.copy_from_slice(s);
+            }
+            done += n;
+            self.offset += n;
+        }
+        done
+    }
+}
+
+/// Whether a stored message is fragmented and, if so, whether it carries the last fragment: the C client looks
+/// only at the first submessage after the header (spec §9.4).
+pub(crate) fn fragment_info(msg: &[u8]) -> Option<bool> {
+    let hs = MessageHeader::size_for(*msg.first()?);
+    let sub = msg.get(hs..hs + SUBHEADER)?;
+    let (&sid, &flags) = (sub.first()?, sub.get(1)?);
+    (sid == id::FRAGMENT).then_some(flags & flag::LAST_FRAGMENT != 0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::seq;
+
+    #[test]
+    fn serial_arithmetic_wraps() {
+        assert!(seq::lt(0xFFFF, 0));
+        assert!(seq::lt(10, 11));
+        assert!(!seq::lt(11, 10));
+        assert!(seq::lt(0xFFF0, 0x0010));
+        assert!(!seq::lt(5, 5));
+        assert_eq!(seq::max(0xFFFF, 3), 3);
+    }
+
+    #[test]
+    fn history_must_be_power_of_two_dividing_the_buffer() {
+        assert_eq!(super::slot_size(4096, 8), Some(512));
+        assert_eq!(super::slot_size(4096, 3), None);
+        assert_eq!(super::slot_size(100, 8), None);
+        assert_eq!(super::slot_size(4096, 0), None);
+    }
+}

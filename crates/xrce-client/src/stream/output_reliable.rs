@@ -1,0 +1,452 @@
+//! Reliable output stream (spec §9.3) and its fragmentation (§9.6), as eProsima's C client does them.
+//!
+//! The buffer is split into `history` slots; slot `seq mod history` holds message `seq`. A message can be
+//! written only while its slot is inside the window (`seq - last_acknown <= history`); when it is not, writes
+//! fail with [`Error::WouldBlock`] instead of stalling. HEARTBEATs go out every 100 ms while something is
+//! unacknowledged; an ACKNACK releases slots and, if it reports any gap, everything unacknowledged is resent.
+
+use super::{align4, seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
+use crate::error::{Error, Result};
+use xrce_proto::submessage::{flag, id};
+use xrce_proto::{ClientKey, MessageHeader, StreamId};
+
+/// Heartbeat period of the C client (`UCLIENT_MIN_HEARTBEAT_TIME_INTERVAL`), in nanoseconds.
+pub const HEARTBEAT_PERIOD_NS: i64 = 100_000_000;
+
+/// Slot flag: the message ends with a FRAGMENT, so it is sent without trailing padding.
+const ENDS_WITH_FRAGMENT: u8 = 0x01;
+
+/// A fragmented submessage being written.
+#[derive(Debug, Clone, Copy)]
+struct Chain {
+    /// Slot receiving bytes.
+    seq: u16,
+    /// Whether the FRAGMENT header of `seq` is written (it waits for the window otherwise).
+    started: bool,
+    /// Offset of that FRAGMENT header in the slot's message.
+    sub_at: usize,
+    /// Inner bytes still to write.
+    remaining: usize,
+}
+
+/// A reliable output stream over a caller's buffer.
+#[derive(Debug)]
+pub struct OutputReliable<'a> {
+    buf: &'a mut [u8],
+    history: u16,
+    slot: usize,
+    header_size: usize,
+    last_written: u16,
+    last_sent: u16,
+    last_acknown: u16,
+    resend: Option<u16>,
+    flush: bool,
+    heartbeat_deadline: Option<i64>,
+    chain: Option<Chain>,
+}
+
+impl<'a> OutputReliable<'a> {
+    /// A stream over `buf` with `history` slots (a power of two dividing the buffer), for messages whose header
+    /// takes `header_size` bytes.
+    pub fn new(buf: &'a mut [u8], history: usize, header_size: usize) -> Result<Self> {
+        let slot = slot_size(buf.len(), history).ok_or(Error::InvalidHistory)?;
+        let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
+        let mut s = Self {
+            buf,
+            history,
+            slot,
+            header_size,
+            last_written: 0,
+            last_sent: seq::INIT,
+            last_acknown: seq::INIT,
+            resend: None,
+            flush: false,
+            heartbeat_deadline: None,
+            chain: None,
+        };
+        s.reset();
+        Ok(s)
+    }
+
+    /// Drops everything and restarts numbering (session (re)creation).
+    pub fn reset(&mut self) {
+        for i in 0..usize::from(self.history) {
+            self.set_slot(i, 0, 0);
+        }
+        self.last_written = 0;
+        self.last_sent = seq::INIT;
+        self.last_acknown = seq::INIT;
+        self.resend = None;
+        self.flush = false;
+        self.heartbeat_deadline = None;
+        self.chain = None;
+    }
+
+    /// Bytes of message a slot holds (header included): the slot minus its length word.
+    pub const fn slot_capacity(&self) -> usize {
+        self.slot - SLOT_LEN_WORD
+    }
+
+    /// Largest submessage (header included) that fits one message.
+    pub const fn max_unfragmented(&self) -> usize {
+        self.slot_capacity() - self.header_size
+    }
+
+    fn index(&self, seq_nr: u16) -> usize {
+        usize::from(seq_nr & (self.history - 1))
+    }
+
+    fn len_of(&self, seq_nr: u16) -> usize {
+        let at = self.index(seq_nr) * self.slot;
+        match self.buf.get(at..at + 2) {
+            Some(&[lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
+            _ => 0,
+        }
+    }
+
+    fn flags_of(&self, seq_nr: u16) -> u8 {
+        self.buf.get(self.index(seq_nr) * self.slot + 2).copied().unwrap_or(0)
+    }
+
+    fn set_slot(&mut self, index: usize, len: usize, flags: u8) {
+        let at = index * self.slot;
+        let len = u16::try_from(len).unwrap_or(0).to_le_bytes();
+        if let Some(dst) = self.buf.get_mut(at..at + 3) {
+            dst.copy_from_slice(&[len[0], len[1], flags]);
+        }
+    }
+
+    fn set_len(&mut self, seq_nr: u16, len: usize, flags: u8) {
+        self.set_slot(self.index(seq_nr), len, flags);
+    }
+
+    /// The message area of slot `seq_nr`.
+    fn content_mut(&mut self, seq_nr: u16) -> &mut [u8] {
+        let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
+        let end = at + self.slot_capacity();
+        self.buf.get_mut(at..end).unwrap_or(&mut [])
+    }
+
+    fn content(&self, seq_nr: u16) -> &[u8] {
+        let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
+        let end = at + self.slot_capacity();
+        self.buf.get(at..end).unwrap_or(&[])
+    }
+
+    /// Whether message `seq_nr` may be written: its slot no longer holds an unacknowledged message.
+    fn window_ok(&self, seq_nr: u16) -> bool {
+        let d = seq_nr.wrapping_sub(self.last_acknown);
+        d != 0 && d <= self.history
+    }
+
+    /// Where the next message would start: (slot, offset) in the current slot when `fits` says so, else the next.
+    fn next_slot(&self) -> u16 {
+        if self.len_of(self.last_written) == 0 {
+            self.last_written
+        } else {
+            self.last_written.wrapping_add(1)
+        }
+    }
+
+    /// Reserves `total` bytes (submessage header included) in one message and returns them zero-filled, or
+    /// `None` when the submessage needs fragmenting.
+    pub fn reserve(&mut self, total: usize) -> Result<Option<&mut [u8]>> {
+        if self.chain.is_some() {
+            return Err(Error::Busy);
+        }
+        let cap = self.slot_capacity();
+        let cur = self.last_written;
+        let cur_len = self.len_of(cur);
+        let (target, at) = if cur_len > 0 && align4(cur_len) + total <= cap {
+            (cur, align4(cur_len))
+        } else if self.header_size + total <= cap {
+            let next = self.next_slot();
+            if !self.window_ok(next) {
+                return Err(Error::WouldBlock);
+            }
+            (next, self.header_size)
+        } else {
+            return Ok(None);
+        };
+        self.last_written = target;
+        let old = self.len_of(target);
+        self.set_len(target, at + total, 0);
+        let content = self.content_mut(target);
+        let from = old.min(at);
+        if let Some(pad) = content.get_mut(from..at) {
+            pad.fill(0);
+        }
+        let region = content.get_mut(at..at + total).ok_or(Error::TooLarge)?;
+        region.fill(0);
+        Ok(Some(region))
+    }
+
+    /// Writes a submessage made of `parts` (its 4-byte header first), fragmenting it over several messages when
+    /// it does not fit one (spec §9.6). All or nothing: [`Error::WouldBlock`] when the window lacks slots now,
+    /// [`Error::TooLarge`] when the whole history could never hold it.
+    pub fn write_parts(&mut self, parts: &[&[u8]]) -> Result<()> {
+        let total = Parts::total(parts);
+        if let Some(region) = self.reserve(total)? {
+            Parts::new(parts).read_into(region);
+            return Ok(());
+        }
+        let (first, first_off) = self.first_fragment_place(1);
+        let cap = self.slot_capacity();
+        let first_chunk = cap - first_off - SUBHEADER;
+        let block = cap - self.header_size - SUBHEADER;
+        let rest = total.saturating_sub(first_chunk);
+        let extra = rest.div_ceil(block);
+        if extra >= usize::from(self.history) {
+            return Err(Error::TooLarge);
+        }
+        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
+        if !self.window_ok(first) || !self.window_ok(last) {
+            return Err(Error::WouldBlock);
+        }
+        self.start_chain(first, first_off, total);
+        let mut reader = Parts::new(parts);
+        let mut scratch = [0u8; 64];
+        let mut left = total;
+        while left > 0 {
+            let n = reader.read_into(scratch.get_mut(..left.min(64)).unwrap_or(&mut []));
+            if n == 0 {
+                break;
+            }
+            let pushed = self.push(scratch.get(..n).unwrap_or(&[]));
+            left -= pushed;
+            if pushed < n {
+                // Cannot happen: the window was checked for every slot of the chain.
+                return Err(Error::WouldBlock);
+            }
+        }
+        Ok(())
+    }
+
+    /// Where a FRAGMENT chain would start: after the content of the current slot if at least `min_first` inner
+    /// bytes still fit there, else at the start of the next slot.
+    fn first_fragment_place(&self, min_first: usize) -> (u16, usize) {
+        let cur = self.last_written;
+        let cur_len = self.len_of(cur);
+        if cur_len > 0 && align4(cur_len) + SUBHEADER + min_first <= self.slot_capacity() {
+            (cur, align4(cur_len))
+        } else {
+            (self.next_slot(), self.header_size)
+        }
+    }
+
+    fn start_chain(&mut self, first: u16, at: usize, total: usize) {
+        let old = self.len_of(first);
+        self.last_written = first;
+        let content = self.content_mut(first);
+        if let Some(pad) = content.get_mut(old.min(at)..at) {
+            pad.fill(0);
+        }
+        if let Some(h) = content.get_mut(at..at + SUBHEADER) {
+            h.copy_from_slice(&[id::FRAGMENT, flag::ENDIANNESS, 0, 0]);
+        }
+        self.set_len(first, at + SUBHEADER, ENDS_WITH_FRAGMENT);
+        self.chain = Some(Chain { seq: first, started: true, sub_at: at, remaining: total });
+    }
+
+    /// Starts a continuous fragmented submessage of `inner_total` bytes whose first bytes are `head` (the inner
+    /// submessage header and request); the rest comes through [`push`](Self::push). Used by
+    /// `prepare_output_stream_fragmented`.
+    pub fn begin_chain(&mut self, head: &[u8], inner_total: usize) -> Result<()> {
+        if self.chain.is_some() {
+            return Err(Error::Busy);
+        }
+        if self.slot_capacity() < self.header_size + SUBHEADER + head.len() {
+            return Err(Error::TooLarge);
+        }
+        let (first, at) = self.first_fragment_place(head.len());
+        if !self.window_ok(first) {
+            return Err(Error::WouldBlock);
+        }
+        self.start_chain(first, at, inner_total);
+        let pushed = self.push(head);
+        debug_assert_eq!(pushed, head.len());
+        Ok(())
+    }
+
+    /// Whether a fragmented submessage is being written.
+    pub const fn chain_in_progress(&self) -> bool {
+        self.chain.is_some()
+    }
+
+    /// Inner bytes still expected by the fragmented submessage being written.
+    pub fn chain_remaining(&self) -> usize {
+        self.chain.map_or(0, |c| c.remaining)
+    }
+
+    /// Appends bytes to the fragmented submessage being written; returns how many were taken (fewer than given
+    /// when the window is full: run the session and push the rest).
+    pub fn push(&mut self, mut data: &[u8]) -> usize {
+        let cap = self.slot_capacity();
+        let hs = self.header_size;
+        let mut taken = 0;
+        while let Some(mut c) = self.chain {
+            if c.remaining == 0 || data.is_empty() {
+                break;
+            }
+            if !c.started {
+                if !self.window_ok(c.seq) {
+                    break;
+                }
+                if let Some(h) = self.content_mut(c.seq).get_mut(hs..hs + SUBHEADER) {
+                    h.copy_from_slice(&[id::FRAGMENT, flag::ENDIANNESS, 0, 0]);
+                }
+                self.set_len(c.seq, hs + SUBHEADER, ENDS_WITH_FRAGMENT);
+                c.started = true;
+                c.sub_at = hs;
+            }
+            let len = self.len_of(c.seq);
+            let n = (cap - len).min(c.remaining).min(data.len());
+            let (now, later) = data.split_at(n);
+            if let Some(dst) = self.content_mut(c.seq).get_mut(len..len + n) {
+                dst.copy_from_slice(now);
+            }
+            data = later;
+            taken += n;
+            c.remaining -= n;
+            let len = len + n;
+            self.set_len(c.seq, len, ENDS_WITH_FRAGMENT);
+            let chunk = u16::try_from(len - c.sub_at - SUBHEADER).unwrap_or(0).to_le_bytes();
+            if c.remaining == 0 {
+                let sub_at = c.sub_at;
+                if let Some(h) = self.content_mut(c.seq).get_mut(sub_at + 1..sub_at + 4) {
+                    h.copy_from_slice(&[flag::ENDIANNESS | flag::LAST_FRAGMENT, chunk[0], chunk[1]]);
+                }
+                // Seal the slot: nothing is appended after a FRAGMENT.
+                self.last_written = c.seq.wrapping_add(1);
+                self.chain = None;
+                return taken;
+            }
+            if len == cap {
+                let sub_at = c.sub_at;
+                if let Some(h) = self.content_mut(c.seq).get_mut(sub_at + 2..sub_at + 4) {
+                    h.copy_from_slice(&chunk);
+                }
+                c.seq = c.seq.wrapping_add(1);
+                c.started = false;
+                self.last_written = c.seq;
+            }
+            self.chain = Some(c);
+        }
+        taken
+    }
+
+    /// Marks the message being filled for sending (`flash`).
+    pub fn flush(&mut self) {
+        self.flush = true;
+    }
+
+    /// The next message to send (a retransmission or a new one), written to `out` with its header; its length.
+    pub fn poll_transmit(
+        &mut self,
+        session_id: u8,
+        key: ClientKey,
+        stream: StreamId,
+        now: i64,
+        out: &mut [u8],
+    ) -> Option<usize> {
+        let seq_nr = self.next_to_send(now)?;
+        let len = self.len_of(seq_nr);
+        let padded = if self.flags_of(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { align4(len) };
+        let dst = out.get_mut(..padded)?;
+        let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
+        dst.get_mut(hs..len)?.copy_from_slice(self.content(seq_nr).get(hs..len)?);
+        dst.get_mut(len..padded)?.fill(0);
+        Some(padded)
+    }
+
+    fn next_to_send(&mut self, now: i64) -> Option<u16> {
+        if let Some(r) = self.resend {
+            if seq::lt(self.last_acknown, r) && seq::le(r, self.last_sent) {
+                self.resend = Some(r.wrapping_add(1));
+                return Some(r);
+            }
+            self.resend = None;
+        }
+        let s = self.last_sent.wrapping_add(1);
+        if self.len_of(s) == 0 {
+            if s == self.last_written {
+                self.flush = false;
+            }
+            return None;
+        }
+        if s == self.last_written {
+            let filling = self.chain.is_some_and(|c| c.seq == s);
+            if !self.flush || filling {
+                return None;
+            }
+            self.flush = false;
+            self.last_written = s.wrapping_add(1);
+        } else if !seq::lt(s, self.last_written) {
+            return None;
+        }
+        self.last_sent = s;
+        if self.heartbeat_deadline.is_none() {
+            self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
+        }
+        Some(s)
+    }
+
+    /// A HEARTBEAT `(first_unacked, last_unacked)` when one is due.
+    pub fn poll_heartbeat(&mut self, now: i64) -> Option<(u16, u16)> {
+        if self.last_acknown == self.last_sent {
+            self.heartbeat_deadline = None;
+            return None;
+        }
+        match self.heartbeat_deadline {
+            None => {
+                self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
+                None
+            }
+            Some(d) if now >= d => {
+                self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
+                Some((self.last_acknown.wrapping_add(1), self.last_sent))
+            }
+            Some(_) => None,
+        }
+    }
+
+    /// When the next HEARTBEAT is due, if any.
+    pub const fn heartbeat_deadline(&self) -> Option<i64> {
+        self.heartbeat_deadline
+    }
+
+    /// An ACKNACK for this stream: release what is acknowledged, resend everything unacknowledged on any gap.
+    pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
+        let acked = first_unacked.wrapping_sub(1);
+        if seq::lt(self.last_acknown, acked) && seq::le(acked, self.last_sent) {
+            let mut s = self.last_acknown.wrapping_add(1);
+            loop {
+                self.set_len(s, 0, 0);
+                if s == acked {
+                    break;
+                }
+                s = s.wrapping_add(1);
+            }
+            self.last_acknown = acked;
+        }
+        let unacked = self.last_acknown != self.last_sent;
+        if bitmap != 0 && unacked {
+            self.resend = Some(self.last_acknown.wrapping_add(1));
+        }
+        self.heartbeat_deadline = unacked.then_some(now + HEARTBEAT_PERIOD_NS);
+    }
+
+    /// Whether everything written was sent and acknowledged.
+    pub fn confirmed(&self) -> bool {
+        self.last_acknown == self.last_sent
+            && self.last_sent.wrapping_add(1) == self.last_written
+            && self.len_of(self.last_written) == 0
+            && self.chain.is_none()
+    }
+
+    /// Whether a message waits to be (re)sent now.
+    pub fn has_pending(&self) -> bool {
+        let s = self.last_sent.wrapping_add(1);
+        self.resend.is_some() || (self.len_of(s) > 0 && (seq::lt(s, self.last_written) || self.flush))
+    }
+}
