@@ -186,22 +186,22 @@ impl MiddlewareKind {
 const ALL_ARGUMENTS: &str = "\
 Arguments per transport (place them after the transport):
   * COMMON (every transport)
-      -h/--help                     print help
+      -h/--help                       print help
       -m/--middleware <ced|dds|rtps>  middleware [default: dds]
-      -r/--refs <FILE>              Fast DDS XML profiles for entities created by reference
-      -v/--verbose [0-6]            log level: 0 off .. 6 trace with hex dumps [default: 4, bare -v: 4]
-      -d/--discovery [PORT]         answer agent discovery requests [bare -d: 7400]
-      -P/--p2p <PORT>               P2P discovery of other agents (CED middleware)
+      -r/--refs <FILE>                Fast DDS XML profiles for entities created by reference
+      -v/--verbose [0-6]              log level: 0 off .. 6 trace with hex dumps [default: 4, bare -v: 4]
+      -d/--discovery [PORT]           answer agent discovery requests [bare -d: 7400]
+      -P/--p2p <PORT>                 P2P discovery of other agents (CED middleware)
   * IPvX (udp4, udp6, tcp4, tcp6)
-      -p/--port <PORT>              local port (required)
+      -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)
-      -b/--baudrate <BAUD>          line speed [default: 115200]
-      -D/--dev <DEVICE>             serial: device path
-      -D/--devs \"<DEVICE> ...\"      multiserial: space-separated device paths in one argument
-      -f/--file <FILE>              serial: device path on the first line; multiserial: one per line
+      -b/--baudrate <BAUD>            line speed [default: 115200]
+      -D/--dev <DEVICE>               serial: device path
+      -D/--devs \"<DEVICE> ...\"        multiserial: space-separated device paths in one argument
+      -f/--file <FILE>                serial: device path on the first line; multiserial: one per line
   * CAN FD (canfd)
-      -D/--dev <INTERFACE>          SocketCAN interface (required)
-      -I/--id <HEX>                 CAN identifier [default: 0x00000001]
+      -D/--dev <INTERFACE>            SocketCAN interface (required)
+      -I/--id <HEX>                   CAN identifier [default: 0x00000001]
 
 Example: xrce-agent udp4 -p 8888 -m ced -v6";
 
@@ -211,6 +211,7 @@ Example: xrce-agent udp4 -p 8888 -m ced -v6";
     about = "DDS-XRCE agent, a drop-in replacement for eProsima's MicroXRCEAgent",
     subcommand_required = true,
     arg_required_else_help = true,
+    disable_help_subcommand = true,
     args_override_self = true,
     after_help = ALL_ARGUMENTS
 )]
@@ -284,13 +285,7 @@ struct IpArgs {
 #[derive(Debug, Args)]
 struct SerialArgs {
     /// Serial device path.
-    #[arg(
-        short = 'D',
-        long = "dev",
-        value_name = "DEVICE",
-        required_unless_present = "file",
-        conflicts_with = "file"
-    )]
+    #[arg(short = 'D', long = "dev", value_name = "DEVICE", required_unless_present = "file", conflicts_with = "file")]
     dev: Option<String>,
 
     /// File whose first line is the serial device path.
@@ -438,10 +433,7 @@ fn existing_file(value: &str) -> Result<PathBuf, String> {
 /// `-I` value parser: hexadecimal like C's `strtoul(s, NULL, 16)` (optional `0x`), limited to 29 bits.
 fn parse_can_id(value: &str) -> Result<u32, String> {
     let trimmed = value.trim();
-    let digits = trimmed
-        .strip_prefix("0x")
-        .or_else(|| trimmed.strip_prefix("0X"))
-        .unwrap_or(trimmed);
+    let digits = trimmed.strip_prefix("0x").or_else(|| trimmed.strip_prefix("0X")).unwrap_or(trimmed);
     let id = u32::from_str_radix(digits, 16).map_err(|_| format!("'{value}' is not a hexadecimal CAN id"))?;
     if digits.starts_with('+') || id > MAX_CAN_ID {
         return Err(format!("CAN id '{value}' is not a 29-bit hexadecimal id (0 ..= 0x{MAX_CAN_ID:X})"));
@@ -554,10 +546,10 @@ mod tests {
         assert_eq!(c.middleware, MiddlewareKind::Ced);
         assert_eq!(c.discovery, Some(7401));
         assert_eq!(c.p2p, Some(2019));
-        assert_eq!(ok("serial -D/dev/ttyUSB0 -b9600").transport, Transport::Serial {
-            device: "/dev/ttyUSB0".into(),
-            baudrate: 9600
-        });
+        assert_eq!(
+            ok("serial -D/dev/ttyUSB0 -b9600").transport,
+            Transport::Serial { device: "/dev/ttyUSB0".into(), baudrate: 9600 }
+        );
     }
 
     #[test]
@@ -650,28 +642,28 @@ mod tests {
 
     #[test]
     fn serial_device_or_file() {
-        assert_eq!(ok("serial --dev /dev/ttyACM0").transport, Transport::Serial {
-            device: "/dev/ttyACM0".into(),
-            baudrate: 115_200
-        });
-        assert_eq!(ok("serial -D /dev/ttyACM0 -b 921600").transport, Transport::Serial {
-            device: "/dev/ttyACM0".into(),
-            baudrate: 921_600
-        });
+        assert_eq!(
+            ok("serial --dev /dev/ttyACM0").transport,
+            Transport::Serial { device: "/dev/ttyACM0".into(), baudrate: 115_200 }
+        );
+        assert_eq!(
+            ok("serial -D /dev/ttyACM0 -b 921600").transport,
+            Transport::Serial { device: "/dev/ttyACM0".into(), baudrate: 921_600 }
+        );
         // Non-standard rates are accepted, as eProsima does.
-        assert_eq!(ok("serial -D /dev/x --baudrate 250000").transport, Transport::Serial {
-            device: "/dev/x".into(),
-            baudrate: 250_000
-        });
+        assert_eq!(
+            ok("serial -D /dev/x --baudrate 250000").transport,
+            Transport::Serial { device: "/dev/x".into(), baudrate: 250_000 }
+        );
         let file = temp_file("serial.dev", "/dev/ttyUSB3\n/dev/ttyUSB4\n");
-        assert_eq!(ok(&format!("serial -f {}", file.display())).transport, Transport::Serial {
-            device: "/dev/ttyUSB3".into(),
-            baudrate: 115_200
-        });
-        assert_eq!(ok(&format!("serial --file {} -b 57600", file.display())).transport, Transport::Serial {
-            device: "/dev/ttyUSB3".into(),
-            baudrate: 57_600
-        });
+        assert_eq!(
+            ok(&format!("serial -f {}", file.display())).transport,
+            Transport::Serial { device: "/dev/ttyUSB3".into(), baudrate: 115_200 }
+        );
+        assert_eq!(
+            ok(&format!("serial --file {} -b 57600", file.display())).transport,
+            Transport::Serial { device: "/dev/ttyUSB3".into(), baudrate: 57_600 }
+        );
         assert_eq!(rejected("serial"), ErrorKind::MissingRequiredArgument);
         assert_eq!(rejected(&format!("serial -D /dev/x -f {}", file.display())), ErrorKind::ArgumentConflict);
         assert_eq!(rejected("serial -f /nonexistent/devs"), ErrorKind::Io);
@@ -684,17 +676,17 @@ mod tests {
     #[test]
     fn multiserial_devs_in_one_argument_or_file() {
         let c = parse_from(["xrce-agent", "multiserial", "--devs", "/dev/ttyACM0 /dev/ttyACM1", "-b", "9600"]).unwrap();
-        assert_eq!(c.transport, Transport::MultiSerial {
-            devices: vec!["/dev/ttyACM0".into(), "/dev/ttyACM1".into()],
-            baudrate: 9600
-        });
+        assert_eq!(
+            c.transport,
+            Transport::MultiSerial { devices: vec!["/dev/ttyACM0".into(), "/dev/ttyACM1".into()], baudrate: 9600 }
+        );
         let c = parse_from(["xrce-agent", "multiserial", "-D", "/dev/a"]).unwrap();
         assert_eq!(c.transport, Transport::MultiSerial { devices: vec!["/dev/a".into()], baudrate: 115_200 });
         let file = temp_file("multi.dev", "/dev/a\n\n  /dev/b  \n");
-        assert_eq!(ok(&format!("multiserial -f {}", file.display())).transport, Transport::MultiSerial {
-            devices: vec!["/dev/a".into(), "/dev/b".into()],
-            baudrate: 115_200
-        });
+        assert_eq!(
+            ok(&format!("multiserial -f {}", file.display())).transport,
+            Transport::MultiSerial { devices: vec!["/dev/a".into(), "/dev/b".into()], baudrate: 115_200 }
+        );
         assert_eq!(rejected("multiserial"), ErrorKind::MissingRequiredArgument);
         let e = parse_from(["xrce-agent", "multiserial", "--devs", "  "]).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::InvalidValue);
@@ -711,18 +703,18 @@ mod tests {
     #[test]
     fn canfd_device_and_hex_id() {
         assert_eq!(ok("canfd -D can0").transport, Transport::CanFd { device: "can0".into(), can_id: 1 });
-        assert_eq!(ok("canfd --dev vcan0 -I 0x123").transport, Transport::CanFd {
-            device: "vcan0".into(),
-            can_id: 0x123
-        });
-        assert_eq!(ok("canfd --dev vcan0 --id 1ABCDEF").transport, Transport::CanFd {
-            device: "vcan0".into(),
-            can_id: 0x1AB_CDEF
-        });
-        assert_eq!(ok("canfd -Dcan1 -I0X1fffffff").transport, Transport::CanFd {
-            device: "can1".into(),
-            can_id: MAX_CAN_ID
-        });
+        assert_eq!(
+            ok("canfd --dev vcan0 -I 0x123").transport,
+            Transport::CanFd { device: "vcan0".into(), can_id: 0x123 }
+        );
+        assert_eq!(
+            ok("canfd --dev vcan0 --id 1ABCDEF").transport,
+            Transport::CanFd { device: "vcan0".into(), can_id: 0x1AB_CDEF }
+        );
+        assert_eq!(
+            ok("canfd -Dcan1 -I0X1fffffff").transport,
+            Transport::CanFd { device: "can1".into(), can_id: MAX_CAN_ID }
+        );
         assert_eq!(rejected("canfd"), ErrorKind::MissingRequiredArgument);
         assert_eq!(rejected("canfd -D can0 -I 0x20000000"), ErrorKind::ValueValidation);
         assert_eq!(rejected("canfd -D can0 -I xyz"), ErrorKind::ValueValidation);
@@ -763,6 +755,8 @@ mod tests {
         assert_eq!(rejected(""), ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand);
         assert_eq!(rejected("udp5 -p 1"), ErrorKind::InvalidSubcommand);
         assert_eq!(rejected("tpc6 -p 1"), ErrorKind::InvalidSubcommand);
+        // No clap-style `help` subcommand: eProsima has none.
+        assert_eq!(rejected("help udp4"), ErrorKind::InvalidSubcommand);
         assert_eq!(rejected("-p 8888 udp4"), ErrorKind::UnknownArgument);
         assert_eq!(rejected("udp4 -p 1 --bogus"), ErrorKind::UnknownArgument);
         assert_eq!(rejected("udp4 -p 1 extra"), ErrorKind::UnknownArgument);

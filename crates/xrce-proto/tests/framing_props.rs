@@ -18,12 +18,15 @@ fn in_chunks(input: &[u8], cuts: &[usize], mut f: impl FnMut(&[u8])) {
     }
 }
 
+/// Frames as (src, dst, payload).
+type Frames = Vec<(u8, u8, Vec<u8>)>;
+
 /// Decodes `wire` with `decoder`, collecting frames and errors.
 fn collect<B: AsRef<[u8]> + AsMut<[u8]>>(
     decoder: &mut FrameDecoder<B>,
     wire: &[u8],
     cuts: &[usize],
-) -> (Vec<(u8, u8, Vec<u8>)>, Vec<serial::FrameError>) {
+) -> (Frames, Vec<serial::FrameError>) {
     let mut frames = Vec::new();
     let mut errors = Vec::new();
     in_chunks(wire, cuts, |piece| {

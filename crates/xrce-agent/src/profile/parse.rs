@@ -507,7 +507,8 @@ fn partitions(node: Node<'_, '_>) -> Result<Vec<String>, ProfileError> {
 pub(super) fn service(node: Node<'_, '_>) -> Result<ServiceProfile, ProfileError> {
     let element = if node.tag_name().name() == "replier" { "replier" } else { "requester" };
     let required = |field: &'static str| attribute(node, field).ok_or(ProfileError::MissingField { element, field });
-    let mut profile = ServiceProfile::new(required("service_name")?, required("request_type")?, required("reply_type")?);
+    let mut profile =
+        ServiceProfile::new(required("service_name")?, required("request_type")?, required("reply_type")?);
     for child in elements(node) {
         match child.tag_name().name() {
             "request_topic_name" => profile.request_topic_name = text(child, "request_topic_name")?.to_owned(),

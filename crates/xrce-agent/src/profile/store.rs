@@ -1,6 +1,7 @@
 //! Profiles loaded from a `-r` refs file, looked up by `profile_name` when a client creates an entity by
 //! reference.
 
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::io::Read;
 use std::path::Path;
@@ -29,10 +30,13 @@ pub struct ProfileStore {
 /// Inserts unless the name is taken: Fast DDS refuses a second profile with the same name and keeps the
 /// first, reporting it; so do we (with a warning).
 fn insert_new<T>(map: &mut HashMap<String, T>, name: String, value: T, element: &str) {
-    if map.contains_key(&name) {
-        tracing::warn!(profile = %name, element, "refs: duplicate profile_name, keeping the first");
-    } else {
-        map.insert(name, value);
+    match map.entry(name) {
+        Entry::Occupied(e) => {
+            tracing::warn!(profile = %e.key(), element, "refs: duplicate profile_name, keeping the first");
+        }
+        Entry::Vacant(e) => {
+            e.insert(value);
+        }
     }
 }
 

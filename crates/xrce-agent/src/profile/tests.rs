@@ -40,11 +40,15 @@ fn wire_participant() {
 
 #[test]
 fn wire_topic() {
-    let p = xml(ObjectKind::Topic, "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>");
+    let p =
+        xml(ObjectKind::Topic, "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>");
     assert_eq!(p, EntityProfile::Topic(hello_topic(false)));
     let EntityProfile::Topic(t) = p else { unreachable!() };
     assert_eq!(t.history, History::KeepLast(1));
-    assert_eq!(t.resource_limits, ResourceLimits { max_samples: 5000, max_instances: 10, max_samples_per_instance: 400 });
+    assert_eq!(
+        t.resource_limits,
+        ResourceLimits { max_samples: 5000, max_instances: 10, max_samples_per_instance: 400 }
+    );
 }
 
 #[test]
@@ -222,7 +226,10 @@ fn publisher_and_subscriber_partitions() {
         "<dds><subscriber><qos><partition><names><name>s</name></names></partition></qos></subscriber></dds>",
     );
     assert_eq!(p, EntityProfile::Subscriber(SubscriberProfile { partitions: vec!["s".into()] }));
-    assert_eq!(xml(ObjectKind::Subscriber, "<dds><data_reader/></dds>"), EntityProfile::Subscriber(SubscriberProfile::default()));
+    assert_eq!(
+        xml(ObjectKind::Subscriber, "<dds><data_reader/></dds>"),
+        EntityProfile::Subscriber(SubscriberProfile::default())
+    );
 }
 
 #[test]
@@ -230,7 +237,8 @@ fn empty_xml_gives_defaults_where_eprosima_does() {
     assert_eq!(xml(ObjectKind::Participant, ""), EntityProfile::Participant(ParticipantProfile::default()));
     assert_eq!(xml(ObjectKind::Publisher, ""), EntityProfile::Publisher(PublisherProfile::default()));
     assert_eq!(xml(ObjectKind::Subscriber, " \0"), EntityProfile::Subscriber(SubscriberProfile::default()));
-    for kind in [ObjectKind::Topic, ObjectKind::DataWriter, ObjectKind::DataReader, ObjectKind::Requester, ObjectKind::Replier]
+    for kind in
+        [ObjectKind::Topic, ObjectKind::DataWriter, ObjectKind::DataReader, ObjectKind::Requester, ObjectKind::Replier]
     {
         assert!(matches!(xml_err(kind, ""), ProfileError::NoProfile { .. }), "{kind:?}");
     }
@@ -311,7 +319,9 @@ fn wrong_kind_and_unsupported_kinds() {
     assert!(matches!(e, ProfileError::NoProfile { expected: "data_reader" }), "{e}");
     let e = xml_err(ObjectKind::Participant, "<dds><topic><name>t</name></topic></dds>");
     assert!(matches!(e, ProfileError::NoProfile { expected: "participant" }), "{e}");
-    for kind in [ObjectKind::Type, ObjectKind::QosProfile, ObjectKind::Application, ObjectKind::Client, ObjectKind::Invalid] {
+    for kind in
+        [ObjectKind::Type, ObjectKind::QosProfile, ObjectKind::Application, ObjectKind::Client, ObjectKind::Invalid]
+    {
         assert!(matches!(xml_err(kind, "<dds/>"), ProfileError::UnsupportedKind(k) if k == kind));
     }
     let e = xml_err(ObjectKind::Topic, "<unknown_root><topic><name>t</name></topic></unknown_root>");
@@ -361,9 +371,10 @@ fn size_bound() {
 
 #[test]
 fn depth_bound() {
-    let deep = format!("<dds>{}{}</dds>", "<a>".repeat(20_000), "</a>".repeat(20_000));
+    let deep = format!("<dds>{}{}</dds>", "<a>".repeat(5_000), "</a>".repeat(5_000));
+    assert!(deep.len() < MAX_ENTITY_XML_LEN);
     assert!(matches!(xml_err(ObjectKind::Topic, &deep), ProfileError::TooDeep { max: MAX_XML_DEPTH }));
-    let unclosed = "<a>".repeat(20_000);
+    let unclosed = "<a>".repeat(10_000);
     assert!(matches!(xml_err(ObjectKind::Topic, &unclosed), ProfileError::TooDeep { .. }));
     // Self-closing and closed siblings do not add depth.
     let wide = format!("<dds>{}<topic><name>t</name></topic></dds>", "<x/><y></y>".repeat(2_000));
@@ -374,7 +385,8 @@ fn depth_bound() {
 
 #[test]
 fn node_bound() {
-    let many = format!("<dds>{}<topic><name>t</name></topic></dds>", "<x/>".repeat(16 * 1024));
+    // An element and a text node per 5 bytes: more nodes than the limit within the size bound.
+    let many = format!("<dds>{}<topic><name>t</name></topic></dds>", "<x/>a".repeat(8_300));
     assert!(many.len() < MAX_ENTITY_XML_LEN);
     assert!(matches!(xml_err(ObjectKind::Topic, &many), ProfileError::Xml(_)));
 }
@@ -405,8 +417,30 @@ fn attribute_spacing_repair_keeps_everything_else() {
 #[test]
 fn hostile_fragments_never_panic() {
     let pieces = [
-        "<", ">", "</", "/>", "<!--", "-->", "<![CDATA[", "]]>", "<?", "?>", "<!", "\"", "'", "=", "a", "dds", "topic",
-        "name", " ", "&", "&amp;", "é", "\u{10FFFF}", "\0",
+        "<",
+        ">",
+        "</",
+        "/>",
+        "<!--",
+        "-->",
+        "<![CDATA[",
+        "]]>",
+        "<?",
+        "?>",
+        "<!",
+        "\"",
+        "'",
+        "=",
+        "a",
+        "dds",
+        "topic",
+        "name",
+        " ",
+        "&",
+        "&amp;",
+        "é",
+        "\u{10FFFF}",
+        "\0",
     ];
     // Deterministic pseudo-random concatenations.
     let mut state: u32 = 0x1234_5678;
@@ -498,7 +532,10 @@ fn agent_refs_file() {
 
     assert_eq!(
         store.get(ObjectKind::Participant, "default_xrce_participant").unwrap(),
-        EntityProfile::Participant(ParticipantProfile { name: Some("default_xrce_participant".into()), domain_id: None })
+        EntityProfile::Participant(ParticipantProfile {
+            name: Some("default_xrce_participant".into()),
+            domain_id: None
+        })
     );
     assert_eq!(store.get(ObjectKind::Topic, "shapetype_topic").unwrap(), EntityProfile::Topic(square.clone()));
     // Topics are also found by topic name.
@@ -518,7 +555,10 @@ fn agent_refs_file() {
         request_topic_name: "shapetype_service_Request".into(),
         reply_topic_name: "shapetype_service_Reply".into(),
     };
-    assert_eq!(store.get(ObjectKind::Requester, "shapetype_requester").unwrap(), EntityProfile::Requester(service.clone()));
+    assert_eq!(
+        store.get(ObjectKind::Requester, "shapetype_requester").unwrap(),
+        EntityProfile::Requester(service.clone())
+    );
     assert_eq!(store.get(ObjectKind::Replier, "shapetype_replier").unwrap(), EntityProfile::Replier(service));
     // Writer/reader profiles serve publishers/subscribers (no partitions here).
     assert_eq!(
@@ -537,9 +577,18 @@ fn store_lookup_errors() {
     let e = store.get(ObjectKind::Participant, "nope").unwrap_err();
     assert!(matches!(&e, ProfileError::UnknownReference { kind: "participant", name } if name == "nope"), "{e}");
     // Namespaces are per profile type.
-    assert!(matches!(store.get(ObjectKind::DataReader, "shapetype_data_writer"), Err(ProfileError::UnknownReference { .. })));
-    assert!(matches!(store.get(ObjectKind::Replier, "shapetype_requester"), Err(ProfileError::UnknownReference { .. })));
-    assert!(matches!(store.get(ObjectKind::Topic, "shapetype_data_writer"), Err(ProfileError::UnknownReference { .. })));
+    assert!(matches!(
+        store.get(ObjectKind::DataReader, "shapetype_data_writer"),
+        Err(ProfileError::UnknownReference { .. })
+    ));
+    assert!(matches!(
+        store.get(ObjectKind::Replier, "shapetype_requester"),
+        Err(ProfileError::UnknownReference { .. })
+    ));
+    assert!(matches!(
+        store.get(ObjectKind::Topic, "shapetype_data_writer"),
+        Err(ProfileError::UnknownReference { .. })
+    ));
     assert!(matches!(store.get(ObjectKind::Type, "x"), Err(ProfileError::UnsupportedKind(ObjectKind::Type))));
     assert!(matches!(ProfileStore::new().get(ObjectKind::Topic, "Square"), Err(ProfileError::UnknownReference { .. })));
 }
@@ -551,7 +600,10 @@ fn store_publisher_profile_without_topic() {
          </qos></publisher></profiles></dds>",
     )
     .unwrap();
-    assert_eq!(store.get(ObjectKind::Publisher, "pub").unwrap(), EntityProfile::Publisher(PublisherProfile { partitions: vec!["p".into()] }));
+    assert_eq!(
+        store.get(ObjectKind::Publisher, "pub").unwrap(),
+        EntityProfile::Publisher(PublisherProfile { partitions: vec!["p".into()] })
+    );
     // Used for a datawriter, it lacks a topic.
     assert!(matches!(store.get(ObjectKind::DataWriter, "pub"), Err(ProfileError::MissingField { .. })));
 }

@@ -402,6 +402,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
     /// Takes bytes from the front of `input` up to the first one that completes an event, and returns how
     /// many it took with that event (or all of `input` and `None`). Call again with the rest of `input` until
     /// it is empty; incomplete frames carry over to the next call.
+    #[must_use = "the count says where the rest of `input` starts"]
     pub fn feed(&mut self, input: &[u8]) -> (usize, Option<Event<'_>>) {
         for (i, &raw) in input.iter().enumerate() {
             if let Some(outcome) = self.step(raw) {

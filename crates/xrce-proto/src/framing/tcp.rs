@@ -191,6 +191,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> TcpDecoder<B> {
 
     /// Takes bytes from the front of `input` up to the end of the first complete message or error, and
     /// returns how many it took with that event (or all of `input` and `None`). Call again with the rest.
+    #[must_use = "the count says where the rest of `input` starts"]
     pub fn feed(&mut self, input: &[u8]) -> (usize, Option<TcpEvent<'_>>) {
         let mut used = 0usize;
         while let Some(rest) = input.get(used..).filter(|rest| !rest.is_empty()) {
@@ -382,7 +383,7 @@ mod tests {
         let mut storage = [0u8; 20];
         let mut decoder = TcpDecoder::new(&mut storage[..]);
         assert_eq!(decoder.capacity(), 20);
-        decoder.feed(&[0x05, 0x00, 1, 2]);
+        assert_eq!(decoder.feed(&[0x05, 0x00, 1, 2]), (4, None));
         decoder.reset();
         assert!(decoder.is_idle());
         assert_eq!(decoder.feed(&[0x01, 0x00, 0x42]), (3, Some(TcpEvent::Message(&[0x42]))));
