@@ -6,5 +6,10 @@
 //! * [`agent`]: the library API of eProsima's agent (`Agent`, `AgentInstance`).
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
+pub mod agent;
+pub mod cli;
 pub mod core;
+pub mod logging;
 pub mod middleware;
+pub mod profile;
+pub mod transport;

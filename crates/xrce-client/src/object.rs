@@ -1,8 +1,8 @@
 //! Object identifiers, creation modes and the binary QoS of `uxrQoS_t` (spec §5, §7.4, §11).
 
+use xrce_proto::object::{EndpointQos, QosFlags};
 pub use xrce_proto::submessage::DataDeliveryControl as DeliveryControl;
 pub use xrce_proto::{ObjectId, ObjectKind};
-use xrce_proto::object::{EndpointQos, QosFlags};
 
 /// CREATE flag: keep an existing object that matches (`UXR_REUSE`).
 pub const REUSE: u8 = 0x02;

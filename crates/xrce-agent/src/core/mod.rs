@@ -186,6 +186,18 @@ where
         self.register_client(None, key, session_id, mtu, None, now)
     }
 
+    /// Forgets a transport endpoint (a closed TCP connection): clients bound to it keep their entities but
+    /// get no traffic until they send again from a new endpoint.
+    pub fn forget_endpoint(&mut self, endpoint: E) {
+        self.by_endpoint.remove(&endpoint);
+        for client in self.clients.values_mut() {
+            if client.endpoint == Some(endpoint) {
+                client.endpoint = None;
+            }
+        }
+        self.transmits.retain(|t| t.to != endpoint);
+    }
+
     /// Deletes a client and all its entities.
     pub fn delete_client(&mut self, key: ClientKey) -> StatusCode {
         if self.remove_client(key) {

@@ -378,11 +378,11 @@ where
                 Flow::Continue
             }
             Submessage::Delete(req) if req.object_id == ObjectId::CLIENT => {
+                let to = self.clients.get(&key).and_then(|c| c.endpoint);
                 let status = if self.remove_client(key) { StatusCode::OK } else { StatusCode::ERR_UNKNOWN_REFERENCE };
-                // The client is gone: answer with its header, on stream 0, to where the request came from.
+                // The client is gone: answer with its header, on stream 0, to where it was.
                 let reply = BaseObjectReply { related_request: req, result: ResultStatus::new(status) };
                 let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
-                let to = self.last_peer_of(key);
                 if let Some(m) = encode_message(&h, &Submessage::Status(reply)) {
                     self.push_transmit(to, m);
                 }
@@ -445,12 +445,6 @@ where
                 Flow::Stop
             }
         }
-    }
-
-    fn last_peer_of(&self, key: ClientKey) -> Option<E> {
-        self.clients.get(&key).and_then(|c| c.endpoint).or_else(|| {
-            self.by_endpoint.iter().find(|(_, k)| **k == key).map(|(e, _)| *e)
-        })
     }
 
     #[allow(clippy::too_many_arguments)]

@@ -1,7 +1,7 @@
 //! User callbacks on entity creation and deletion (eProsima's `add_middleware_callback`), as a middleware
 //! decorator. Unlike eProsima, where only the participant callbacks fire, every kind listed fires.
 
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 
 use xrce_proto::{ClientKey, ObjectKind, RequestId, SampleIdentity};
 
@@ -45,27 +45,36 @@ impl CallbackKind {
 /// A callback: gets the event kind and the entity.
 pub type Callback = Arc<dyn Fn(CallbackKind, EntityRef) + Send + Sync>;
 
+/// Callbacks shared between a [`WithCallbacks`] and whoever registers them (the library API), so they
+/// can be added while the agent runs.
+pub type CallbackRegistry = Arc<RwLock<Vec<(CallbackKind, Callback)>>>;
+
 /// Wraps a middleware and calls the registered callbacks after each successful create/delete.
 pub struct WithCallbacks<M> {
     inner: M,
-    callbacks: Vec<(CallbackKind, Callback)>,
+    callbacks: CallbackRegistry,
 }
 
 impl<M> std::fmt::Debug for WithCallbacks<M> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("WithCallbacks").field("callbacks", &self.callbacks.len()).finish_non_exhaustive()
+        f.debug_struct("WithCallbacks").finish_non_exhaustive()
     }
 }
 
 impl<M: Middleware> WithCallbacks<M> {
     /// `inner` with no callbacks yet.
     pub fn new(inner: M) -> Self {
-        Self { inner, callbacks: Vec::new() }
+        Self { inner, callbacks: CallbackRegistry::default() }
+    }
+
+    /// `inner` calling the callbacks of `registry`.
+    pub fn with_registry(inner: M, registry: CallbackRegistry) -> Self {
+        Self { inner, callbacks: registry }
     }
 
     /// Adds a callback for `kind`.
-    pub fn add(&mut self, kind: CallbackKind, callback: Callback) {
-        self.callbacks.push((kind, callback));
+    pub fn add(&self, kind: CallbackKind, callback: Callback) {
+        self.callbacks.write().unwrap_or_else(std::sync::PoisonError::into_inner).push((kind, callback));
     }
 
     /// The wrapped middleware.
@@ -75,10 +84,17 @@ impl<M: Middleware> WithCallbacks<M> {
 
     fn fire(&self, entity: EntityRef, created: bool) {
         let Some(kind) = CallbackKind::for_entity(entity.kind(), created) else { return };
-        for (k, cb) in &self.callbacks {
-            if *k == kind {
-                cb(kind, entity);
-            }
+        // Clone out of the lock so a callback may register another one.
+        let matching: Vec<Callback> = self
+            .callbacks
+            .read()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .iter()
+            .filter(|(k, _)| *k == kind)
+            .map(|(_, cb)| cb.clone())
+            .collect();
+        for cb in matching {
+            cb(kind, entity);
         }
     }
 }

@@ -11,6 +11,7 @@
 pub mod callbacks;
 pub mod ced;
 pub mod describe;
+pub mod profiles;
 
 use std::fmt;
 use std::sync::Arc;

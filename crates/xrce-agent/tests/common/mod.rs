@@ -285,3 +285,122 @@ pub fn create_client_msg(key: u32, session: u8) -> Vec<u8> {
         .expect("encode");
     buf[..n].to_vec()
 }
+
+/// A core whose CED resolves references with the refs file `vectors/agent.refs`.
+pub fn new_core_with_refs() -> TestCore {
+    let profiles = xrce_agent::middleware::profiles::StoreProfiles::new();
+    profiles.load_file(captures_dir().join("../agent.refs")).expect("agent.refs");
+    AgentCore::new(CoreConfig::default(), Ced::new(Arc::new(profiles)))
+}
+
+/// The client→agent byte stream of each TCP connection of a capture, in order.
+pub fn tcp_streams(packets: &[Packet]) -> Vec<(u16, Vec<u8>)> {
+    let mut order: Vec<u16> = Vec::new();
+    let mut streams: HashMap<u16, Vec<u8>> = HashMap::new();
+    for p in packets.iter().filter(|p| p.to_agent) {
+        if !order.contains(&p.port) {
+            order.push(p.port);
+        }
+        streams.entry(p.port).or_default().extend_from_slice(&p.data);
+    }
+    order.into_iter().map(|port| (port, streams.remove(&port).unwrap_or_default())).collect()
+}
+
+/// Builds the messages of a simple client with session 0x81 (no key in header).
+pub struct Client {
+    pub session: u8,
+    pub key: u32,
+    pub seq_rel: u16,
+    pub seq_be: u16,
+    pub request: u16,
+}
+
+use xrce_proto::object::{BinaryObject, Representation, RequesterBinary, TopicBinary};
+use xrce_proto::submessage::{Create, CreationMode, DataFormat, DataPayload, ReadData, ReadSpecification, DataDeliveryControl};
+use xrce_proto::{BaseObjectRequest, EntityVariant, ObjectId, ObjectKind, ObjectVariant, RequestId};
+
+impl Client {
+    pub fn new(key: u32) -> Self {
+        Self { session: 0x81, key, seq_rel: 0, seq_be: 0, request: 10 }
+    }
+
+    fn header(&mut self, reliable: bool) -> MessageHeader {
+        let (stream, seq) = if reliable {
+            self.seq_rel = self.seq_rel.wrapping_add(1);
+            (0x80, self.seq_rel.wrapping_sub(1))
+        } else {
+            self.seq_be = self.seq_be.wrapping_add(1);
+            (0x01, self.seq_be.wrapping_sub(1))
+        };
+        MessageHeader::new(self.session, StreamId(stream), seq, xrce_proto::ClientKey::from_u32(self.key))
+    }
+
+    pub fn next_request(&mut self) -> BaseObjectRequest {
+        self.request += 1;
+        BaseObjectRequest { request_id: RequestId(self.request), object_id: ObjectId::INVALID }
+    }
+
+    pub fn encode(&mut self, reliable: bool, sub: &Submessage<'_>) -> Vec<u8> {
+        let header = self.header(reliable);
+        let mut buf = vec![0u8; 70_000];
+        let n = message::encode_single(&mut buf, &header, sub, xrce_proto::Endianness::Little).expect("encode");
+        buf.truncate(n);
+        buf
+    }
+
+    pub fn create(&mut self, id: ObjectId, variant: EntityVariant<'_>) -> Vec<u8> {
+        let mut request = self.next_request();
+        request.object_id = id;
+        let c = Create { request, mode: CreationMode { reuse: false, replace: true }, variant: ObjectVariant::Entity(variant) };
+        self.encode(true, &Submessage::Create(c))
+    }
+
+    /// Participant #1, topic #1 (`topic`), publisher #1, subscriber #1, writer #1, reader #1: binary.
+    pub fn pubsub_entities(&mut self, topic: &str) -> Vec<Vec<u8>> {
+        let p = ObjectId::new(1, ObjectKind::Participant);
+        let t = ObjectId::new(1, ObjectKind::Topic);
+        let publ = ObjectId::new(1, ObjectKind::Publisher);
+        let sub = ObjectId::new(1, ObjectKind::Subscriber);
+        let topic_bin = BinaryObject::Topic(TopicBinary { topic_name: topic, type_reference: None, type_name: Some("T") });
+        let writer = BinaryObject::DataWriter(xrce_proto::object::DataWriterBinary { topic_id: t, qos: None });
+        let reader = BinaryObject::DataReader(xrce_proto::object::DataReaderBinary { topic_id: t, qos: None });
+        let empty = BinaryObject::Raw(&[0, 0]);
+        vec![
+            self.create(p, EntityVariant::participant(Representation::Binary(empty), 0)),
+            self.create(t, EntityVariant::child(ObjectKind::Topic, Representation::Binary(topic_bin), p)),
+            self.create(publ, EntityVariant::child(ObjectKind::Publisher, Representation::Binary(empty), p)),
+            self.create(sub, EntityVariant::child(ObjectKind::Subscriber, Representation::Binary(empty), p)),
+            self.create(ObjectId::new(1, ObjectKind::DataWriter), EntityVariant::child(ObjectKind::DataWriter, Representation::Binary(writer), publ)),
+            self.create(ObjectId::new(1, ObjectKind::DataReader), EntityVariant::child(ObjectKind::DataReader, Representation::Binary(reader), sub)),
+        ]
+    }
+
+    /// Participant #1 and a requester or replier #1 of `service`.
+    pub fn service_entities(&mut self, service: &str, kind: ObjectKind) -> Vec<Vec<u8>> {
+        let p = ObjectId::new(1, ObjectKind::Participant);
+        let bin = RequesterBinary { service_name: service, request_type: "Req", reply_type: "Rep", request_topic_name: None, reply_topic_name: None };
+        let blob = if kind == ObjectKind::Requester { BinaryObject::Requester(bin) } else { BinaryObject::Replier(bin) };
+        let empty = BinaryObject::Raw(&[0, 0]);
+        vec![
+            self.create(p, EntityVariant::participant(Representation::Binary(empty), 0)),
+            self.create(ObjectId::new(1, kind), EntityVariant::child(kind, Representation::Binary(blob), p)),
+        ]
+    }
+
+    pub fn write(&mut self, reliable: bool, object: ObjectId, data: &[u8]) -> Vec<u8> {
+        let mut request = self.next_request();
+        request.object_id = object;
+        self.encode(reliable, &Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data }))
+    }
+
+    pub fn read(&mut self, object: ObjectId, stream: u8, control: Option<DataDeliveryControl>) -> Vec<u8> {
+        let mut request = self.next_request();
+        request.object_id = object;
+        let spec = ReadSpecification { preferred_stream_id: stream, data_format: 0, content_filter_expression: None, delivery_control: control };
+        self.encode(true, &Submessage::ReadData(ReadData { request, spec }))
+    }
+}
+
+pub fn unlimited() -> Option<DataDeliveryControl> {
+    Some(DataDeliveryControl { max_samples: 0xFFFF, ..Default::default() })
+}

@@ -112,7 +112,14 @@ impl<'s, 'a> Outputs<'s, 'a> {
         }
     }
 
-    fn create(&mut self, stream: StreamId, object: ObjectId, link: EntityLink, repr: Repr<'_>, mode: u8) -> Result<u16> {
+    fn create(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        link: EntityLink,
+        repr: Repr<'_>,
+        mode: u8,
+    ) -> Result<u16> {
         let kind = object.kind();
         self.with_request(|out, request| match repr {
             Repr::Reference(s) | Repr::Xml(s) => {
@@ -120,7 +127,17 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 let string_len = u32::try_from(s.len() + 1).map_err(|_| Error::TooLarge)?.to_le_bytes();
                 let b = base(request, object);
                 let prefix = [
-                    b[0], b[1], b[2], b[3], kind as u8, format, 0, 0, string_len[0], string_len[1], string_len[2],
+                    b[0],
+                    b[1],
+                    b[2],
+                    b[3],
+                    kind as u8,
+                    format,
+                    0,
+                    0,
+                    string_len[0],
+                    string_len[1],
+                    string_len[2],
                     string_len[3],
                 ];
                 // After the string (NUL included) at payload offset 12 + len + 1 comes the link.
@@ -149,7 +166,8 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 // Binary blobs are small (names and QoS flags): encoded on the stack at payload offset 4 so CDR
                 // alignment matches the real position in the message.
                 let mut scratch = [0u8; 320];
-                let variant = ObjectVariant::Entity(EntityVariant { kind, representation: Representation::Binary(blob), link });
+                let variant =
+                    ObjectVariant::Entity(EntityVariant { kind, representation: Representation::Binary(blob), link });
                 let mut w = Writer::with_origin(&mut scratch, 4, 0, Endianness::Little);
                 w.write(&variant);
                 let end = w.finish().map_err(|e| match e {
@@ -166,112 +184,253 @@ impl<'s, 'a> Outputs<'s, 'a> {
     // ---- entities by XML -------------------------------------------------------------------------------
 
     /// `uxr_buffer_create_participant_xml`.
-    pub fn buffer_create_participant_xml(&mut self, stream: StreamId, object: ObjectId, domain: u16, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_participant_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        domain: u16,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_topic_xml`.
-    pub fn buffer_create_topic_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_topic_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_publisher_xml`.
-    pub fn buffer_create_publisher_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_publisher_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_subscriber_xml`.
-    pub fn buffer_create_subscriber_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_subscriber_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_datawriter_xml`.
-    pub fn buffer_create_datawriter_xml(&mut self, stream: StreamId, object: ObjectId, publisher: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_datawriter_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        publisher: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(publisher), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_datareader_xml`.
-    pub fn buffer_create_datareader_xml(&mut self, stream: StreamId, object: ObjectId, subscriber: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_datareader_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        subscriber: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(subscriber), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_requester_xml`.
-    pub fn buffer_create_requester_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_requester_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
     }
 
     /// `uxr_buffer_create_replier_xml`.
-    pub fn buffer_create_replier_xml(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, xml: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_replier_xml(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        xml: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
     }
 
     // ---- entities by reference -------------------------------------------------------------------------
 
     /// `uxr_buffer_create_participant_ref`. The C function has no domain argument and sends domain 0.
-    pub fn buffer_create_participant_ref(&mut self, stream: StreamId, object: ObjectId, domain: u16, reference: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_participant_ref(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        domain: u16,
+        reference: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Reference(reference), mode)
     }
 
     /// `uxr_buffer_create_topic_ref`.
-    pub fn buffer_create_topic_ref(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_topic_ref(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        reference: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
     }
 
     /// `uxr_buffer_create_datawriter_ref`.
-    pub fn buffer_create_datawriter_ref(&mut self, stream: StreamId, object: ObjectId, publisher: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_datawriter_ref(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        publisher: ObjectId,
+        reference: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(publisher), Repr::Reference(reference), mode)
     }
 
     /// `uxr_buffer_create_datareader_ref`.
-    pub fn buffer_create_datareader_ref(&mut self, stream: StreamId, object: ObjectId, subscriber: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_datareader_ref(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        subscriber: ObjectId,
+        reference: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(subscriber), Repr::Reference(reference), mode)
     }
 
     /// `uxr_buffer_create_requester_ref`.
-    pub fn buffer_create_requester_ref(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_requester_ref(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        reference: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
     }
 
     /// `uxr_buffer_create_replier_ref`.
-    pub fn buffer_create_replier_ref(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, reference: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_replier_ref(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        reference: &str,
+        mode: u8,
+    ) -> Result<u16> {
         self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
     }
 
     // ---- entities by binary ----------------------------------------------------------------------------
 
     /// `uxr_buffer_create_participant_bin`: the name travels as the QoS profile reference, as in the C client.
-    pub fn buffer_create_participant_bin(&mut self, stream: StreamId, object: ObjectId, domain: u16, name: Option<&str>, mode: u8) -> Result<u16> {
+    pub fn buffer_create_participant_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        domain: u16,
+        name: Option<&str>,
+        mode: u8,
+    ) -> Result<u16> {
         let blob = BinaryObject::Participant(ParticipantBinary { domain_reference: None, qos_profile_reference: name });
         self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Binary(blob), mode)
     }
 
     /// `uxr_buffer_create_topic_bin`.
-    pub fn buffer_create_topic_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, topic_name: &str, type_name: &str, mode: u8) -> Result<u16> {
+    pub fn buffer_create_topic_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        topic_name: &str,
+        type_name: &str,
+        mode: u8,
+    ) -> Result<u16> {
         let blob = BinaryObject::Topic(TopicBinary { topic_name, type_reference: None, type_name: Some(type_name) });
         self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
     }
 
     /// `uxr_buffer_create_publisher_bin`: no name, no QoS (the agent and the C client disagree on its layout).
-    pub fn buffer_create_publisher_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, mode: u8) -> Result<u16> {
+    pub fn buffer_create_publisher_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        mode: u8,
+    ) -> Result<u16> {
         let blob = BinaryObject::Publisher(PubSubBinary::default());
         self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
     }
 
     /// `uxr_buffer_create_subscriber_bin`: no name, no QoS, as the C client.
-    pub fn buffer_create_subscriber_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, mode: u8) -> Result<u16> {
+    pub fn buffer_create_subscriber_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        mode: u8,
+    ) -> Result<u16> {
         let blob = BinaryObject::Subscriber(PubSubBinary::default());
         self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
     }
 
     /// `uxr_buffer_create_datawriter_bin`.
-    pub fn buffer_create_datawriter_bin(&mut self, stream: StreamId, object: ObjectId, publisher: ObjectId, topic: ObjectId, qos: QoS, mode: u8) -> Result<u16> {
+    pub fn buffer_create_datawriter_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        publisher: ObjectId,
+        topic: ObjectId,
+        qos: QoS,
+        mode: u8,
+    ) -> Result<u16> {
         let qos = Some(DataWriterQos { base: qos.endpoint(), ownership_strength: None });
         let blob = BinaryObject::DataWriter(DataWriterBinary { topic_id: topic, qos });
         self.create(stream, object, EntityLink::Parent(publisher), Repr::Binary(blob), mode)
     }
 
     /// `uxr_buffer_create_datareader_bin`.
-    pub fn buffer_create_datareader_bin(&mut self, stream: StreamId, object: ObjectId, subscriber: ObjectId, topic: ObjectId, qos: QoS, mode: u8) -> Result<u16> {
+    pub fn buffer_create_datareader_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        subscriber: ObjectId,
+        topic: ObjectId,
+        qos: QoS,
+        mode: u8,
+    ) -> Result<u16> {
         let qos = Some(DataReaderQos { base: qos.endpoint(), timebasedfilter_msec: None, contentbased_filter: None });
         let blob = BinaryObject::DataReader(DataReaderBinary { topic_id: topic, qos });
         self.create(stream, object, EntityLink::Parent(subscriber), Repr::Binary(blob), mode)
@@ -280,13 +439,29 @@ impl<'s, 'a> Outputs<'s, 'a> {
     /// `uxr_buffer_create_requester_bin`. The blob has no QoS field; `qos` is accepted for parity and unused,
     /// as in the C client.
     #[allow(clippy::too_many_arguments)]
-    pub fn buffer_create_requester_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, service: &ServiceNames<'_>, _qos: QoS, mode: u8) -> Result<u16> {
+    pub fn buffer_create_requester_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        service: &ServiceNames<'_>,
+        _qos: QoS,
+        mode: u8,
+    ) -> Result<u16> {
         let blob = BinaryObject::Requester(service.binary());
         self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
     }
 
     /// `uxr_buffer_create_replier_bin`; see [`buffer_create_requester_bin`](Self::buffer_create_requester_bin).
-    pub fn buffer_create_replier_bin(&mut self, stream: StreamId, object: ObjectId, participant: ObjectId, service: &ServiceNames<'_>, _qos: QoS, mode: u8) -> Result<u16> {
+    pub fn buffer_create_replier_bin(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        participant: ObjectId,
+        service: &ServiceNames<'_>,
+        _qos: QoS,
+        mode: u8,
+    ) -> Result<u16> {
         let blob = BinaryObject::Replier(service.binary());
         self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
     }
@@ -303,7 +478,13 @@ impl<'s, 'a> Outputs<'s, 'a> {
 
     /// `uxr_buffer_request_data`: ask `reader` (a datareader, requester or replier) to deliver on input stream
     /// `data_stream`; `control` `None` delivers one sample.
-    pub fn buffer_request_data(&mut self, stream: StreamId, reader: ObjectId, data_stream: StreamId, control: Option<&DataDeliveryControl>) -> Result<u16> {
+    pub fn buffer_request_data(
+        &mut self,
+        stream: StreamId,
+        reader: ObjectId,
+        data_stream: StreamId,
+        control: Option<&DataDeliveryControl>,
+    ) -> Result<u16> {
         self.read_data(stream, reader, data_stream.0, control)
     }
 
@@ -312,12 +493,22 @@ impl<'s, 'a> Outputs<'s, 'a> {
         self.read_data(stream, reader, 0, Some(&DataDeliveryControl::default()))
     }
 
-    fn read_data(&mut self, stream: StreamId, reader: ObjectId, data_stream: u8, control: Option<&DataDeliveryControl>) -> Result<u16> {
+    fn read_data(
+        &mut self,
+        stream: StreamId,
+        reader: ObjectId,
+        data_stream: u8,
+        control: Option<&DataDeliveryControl>,
+    ) -> Result<u16> {
         self.with_request(|out, request| {
             let b = base(request, reader);
-            let mut body = [b[0], b[1], b[2], b[3], data_stream, 0, 0, u8::from(control.is_some()), 0, 0, 0, 0, 0, 0, 0, 0];
+            let mut body =
+                [b[0], b[1], b[2], b[3], data_stream, 0, 0, u8::from(control.is_some()), 0, 0, 0, 0, 0, 0, 0, 0];
             let len = if let Some(c) = control {
-                for (i, v) in [c.max_samples, c.max_elapsed_time, c.max_bytes_per_second, c.min_pace_period].into_iter().enumerate() {
+                for (i, v) in [c.max_samples, c.max_elapsed_time, c.max_bytes_per_second, c.min_pace_period]
+                    .into_iter()
+                    .enumerate()
+                {
                     if let Some(dst) = body.get_mut(8 + 2 * i..10 + 2 * i) {
                         dst.copy_from_slice(&v.to_le_bytes());
                     }
@@ -350,7 +541,13 @@ impl<'s, 'a> Outputs<'s, 'a> {
 
     /// `uxr_buffer_reply`: a serialized reply from `replier` to the request identified by `sample_id` (as given
     /// to `on_request`).
-    pub fn buffer_reply(&mut self, stream: StreamId, replier: ObjectId, sample_id: &SampleIdentity, data: &[u8]) -> Result<u16> {
+    pub fn buffer_reply(
+        &mut self,
+        stream: StreamId,
+        replier: ObjectId,
+        sample_id: &SampleIdentity,
+        data: &[u8],
+    ) -> Result<u16> {
         let identity = encode_sample_identity(sample_id);
         self.with_request(|out, request| {
             let head = subheader(id::WRITE_DATA, 0, 4 + SampleIdentity::SIZE + data.len())?;

@@ -19,7 +19,7 @@ pub enum Received {
 
 /// What is ready to be processed after the last handled message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Ready {
+pub enum Ready {
     /// A whole stored message at this sequence number.
     Message(u16),
     /// A complete run of fragments.
@@ -54,8 +54,7 @@ impl<'a> InputReliable<'a> {
     pub fn new(buf: &'a mut [u8], history: usize) -> Result<Self> {
         let slot = slot_size(buf.len(), history).ok_or(Error::InvalidHistory)?;
         let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
-        let mut s =
-            Self { buf, history, slot, last_handled: seq::INIT, last_announced: seq::INIT, ack_pending: false };
+        let mut s = Self { buf, history, slot, last_handled: seq::INIT, last_announced: seq::INIT, ack_pending: false };
         s.reset();
         Ok(s)
     }
@@ -168,7 +167,7 @@ impl<'a> InputReliable<'a> {
     }
 
     /// What can be processed next, if anything.
-    pub(crate) fn next_ready(&self) -> Option<Ready> {
+    pub fn next_ready(&self) -> Option<Ready> {
         let first = self.last_handled.wrapping_add(1);
         let msg = self.message(first)?;
         if fragment_info(msg).is_none() {
@@ -187,7 +186,7 @@ impl<'a> InputReliable<'a> {
     }
 
     /// The stored message `seq_nr`, if any.
-    pub(crate) fn message(&self, seq_nr: u16) -> Option<&[u8]> {
+    pub fn message(&self, seq_nr: u16) -> Option<&[u8]> {
         let len = self.len_of(seq_nr);
         if len == 0 || !self.in_window(seq_nr) {
             return None;
@@ -197,7 +196,7 @@ impl<'a> InputReliable<'a> {
     }
 
     /// Frees the stored messages `first..first+count` and marks them handled.
-    pub(crate) fn release(&mut self, first: u16, count: u16) {
+    pub fn release(&mut self, first: u16, count: u16) {
         for i in 0..count {
             let index = self.index(first.wrapping_add(i));
             self.set_len_at(index, 0);
@@ -209,7 +208,7 @@ impl<'a> InputReliable<'a> {
     ///
     /// The slots are rotated so the run is contiguous, then the payloads are moved down in place: no extra
     /// memory. [`finish_assembly`](Self::finish_assembly) undoes the rotation.
-    pub(crate) fn assemble(&mut self, first: u16, count: u16) -> usize {
+    pub fn assemble(&mut self, first: u16, count: u16) -> usize {
         let shift = self.index(first) * self.slot;
         self.buf.rotate_left(shift);
         let mut dest = 0usize;
@@ -234,12 +233,12 @@ impl<'a> InputReliable<'a> {
     }
 
     /// The bytes [`assemble`](Self::assemble) joined.
-    pub(crate) fn assembled(&self, len: usize) -> &[u8] {
+    pub fn assembled(&self, len: usize) -> &[u8] {
         self.buf.get(..len).unwrap_or(&[])
     }
 
     /// Restores the slot layout after [`assemble`](Self::assemble) and releases the run.
-    pub(crate) fn finish_assembly(&mut self, first: u16, count: u16) {
+    pub fn finish_assembly(&mut self, first: u16, count: u16) {
         let shift = self.index(first) * self.slot;
         self.buf.rotate_right(shift);
         self.release(first, count);

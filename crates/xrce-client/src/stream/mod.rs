@@ -10,9 +10,10 @@ mod output_best_effort;
 mod output_reliable;
 
 pub use input_best_effort::InputBestEffort;
-pub use input_reliable::{InputReliable, Received};
+pub(crate) use input_reliable::Ready as input_reliable_ready;
+pub use input_reliable::{InputReliable, Ready, Received};
 pub use output_best_effort::OutputBestEffort;
-pub use output_reliable::OutputReliable;
+pub use output_reliable::{OutputReliable, HEARTBEAT_PERIOD_NS};
 
 use xrce_proto::submessage::{flag, id};
 use xrce_proto::MessageHeader;

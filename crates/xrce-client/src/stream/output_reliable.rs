@@ -96,7 +96,11 @@ impl<'a> OutputReliable<'a> {
         usize::from(seq_nr & (self.history - 1))
     }
 
+    /// Length of message `seq_nr`; 0 outside the window, where the slot still belongs to an older message.
     fn len_of(&self, seq_nr: u16) -> usize {
+        if !self.window_ok(seq_nr) {
+            return 0;
+        }
         let at = self.index(seq_nr) * self.slot;
         match self.buf.get(at..at + 2) {
             Some(&[lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),

@@ -1,0 +1,329 @@
+//! The library API of eProsima's agent (seed 003), in Rust.
+//!
+//! * [`Agent`]: a core with its middleware, usable with or without a running server: `create_client`,
+//!   `delete_client`, `create_*_by_xml` / `create_*_by_ref` and `delete_*` for the 8 kinds,
+//!   `load_config_file`, `reset`, `set_verbose_level`, `add_middleware_callback` (every callback kind fires,
+//!   not only the participant ones as in eProsima).
+//! * [`AgentInstance`]: built from `MicroXRCEAgent`-style arguments; starts its server at once, `run` blocks
+//!   until `stop` (or a signal wired by the caller to [`AgentInstance::stop_flag`]).
+
+use std::fmt::Debug;
+use std::hash::Hash;
+use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use xrce_proto::object::Representation;
+use xrce_proto::submessage::CreationMode;
+use xrce_proto::{ClientKey, EntityVariant, ObjectId, ObjectKind, StatusCode};
+
+use crate::cli::{self, Config, Transport};
+use crate::core::{AgentCore, CoreConfig};
+use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
+use crate::middleware::profiles::StoreProfiles;
+use crate::middleware::{MiddlewareKind, UnsupportedMiddleware};
+use crate::transport::tcp::{ConnId, TcpServer};
+use crate::transport::udp::UdpServer;
+use crate::transport::{lock, DynMiddleware, SharedCore};
+
+/// A refused operation, with the STATUS code an XRCE client would have received.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("operation failed: {}", .0.name())]
+pub struct OpError(pub StatusCode);
+
+/// Why an agent could not be built or run.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// Bad command line (includes `--help`, whose text this is).
+    #[error(transparent)]
+    Cli(#[from] clap::Error),
+    /// The middleware is not available.
+    #[error(transparent)]
+    Middleware(#[from] UnsupportedMiddleware),
+    /// The transport is not implemented yet.
+    #[error("transport `{0}` is not implemented yet; available: udp4, udp6, tcp4, tcp6")]
+    Transport(&'static str),
+    /// The refs file could not be loaded.
+    #[error(transparent)]
+    Profile(#[from] crate::profile::ProfileError),
+    /// Socket or thread error.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
+fn to_cli_kind(kind: cli::MiddlewareKind) -> MiddlewareKind {
+    match kind {
+        cli::MiddlewareKind::Ced => MiddlewareKind::Ced,
+        cli::MiddlewareKind::Dds => MiddlewareKind::Dds,
+        cli::MiddlewareKind::Rtps => MiddlewareKind::Rtps,
+    }
+}
+
+/// An agent core with its middleware, profiles and callbacks, for endpoints of type `E`.
+pub struct Agent<E> {
+    core: SharedCore<E>,
+    profiles: Arc<StoreProfiles>,
+    callbacks: CallbackRegistry,
+}
+
+impl<E> Clone for Agent<E> {
+    fn clone(&self) -> Self {
+        Self { core: self.core.clone(), profiles: self.profiles.clone(), callbacks: self.callbacks.clone() }
+    }
+}
+
+impl<E> Debug for Agent<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Agent").finish_non_exhaustive()
+    }
+}
+
+fn status(code: StatusCode) -> Result<StatusCode, OpError> {
+    if code.is_ok() {
+        Ok(code)
+    } else {
+        Err(OpError(code))
+    }
+}
+
+macro_rules! entity_api {
+    ($(($kind:ident, $xml:ident, $by_ref:ident, $delete:ident)),* $(,)?) => {
+        $(
+            #[doc = concat!("Creates a ", stringify!($kind), " from XML under `parent_id` (object number); `flags` are the CREATE flags (REUSE 0x02, REPLACE 0x04).")]
+            pub fn $xml(&self, client_key: u32, id: u16, parent_id: u16, xml: &str, flags: u8) -> Result<StatusCode, OpError> {
+                self.create_child(ObjectKind::$kind, client_key, id, parent_id, Representation::Xml(xml), flags)
+            }
+            #[doc = concat!("Creates a ", stringify!($kind), " from a profile of the loaded refs under `parent_id`.")]
+            pub fn $by_ref(&self, client_key: u32, id: u16, parent_id: u16, reference: &str, flags: u8) -> Result<StatusCode, OpError> {
+                self.create_child(ObjectKind::$kind, client_key, id, parent_id, Representation::Reference(reference), flags)
+            }
+            #[doc = concat!("Deletes a ", stringify!($kind), " and what hangs from it.")]
+            pub fn $delete(&self, client_key: u32, id: u16) -> Result<StatusCode, OpError> {
+                self.delete_entity(ObjectKind::$kind, client_key, id)
+            }
+        )*
+    };
+}
+
+impl<E: Copy + Eq + Hash + Debug> Agent<E> {
+    /// An agent on `kind` (only CED exists yet) with the given core limits.
+    pub fn new(kind: MiddlewareKind, config: CoreConfig) -> Result<Self, UnsupportedMiddleware> {
+        let profiles = Arc::new(StoreProfiles::new());
+        let middleware = kind.build(profiles.clone())?;
+        let callbacks = CallbackRegistry::default();
+        let wrapped: DynMiddleware = Box::new(WithCallbacks::with_registry(middleware, callbacks.clone()));
+        let core = Arc::new(Mutex::new(AgentCore::new(config, wrapped)));
+        Ok(Self { core, profiles, callbacks })
+    }
+
+    /// The shared core, for transport shells.
+    pub fn core(&self) -> SharedCore<E> {
+        self.core.clone()
+    }
+
+    /// Registers a ProxyClient ahead of its CREATE_CLIENT (its streams are reset then, its entities kept).
+    pub fn create_client(&self, key: u32, session: u8, mtu: u16) -> Result<StatusCode, OpError> {
+        status(lock(&self.core).create_client(ClientKey::from_u32(key), session, mtu, Instant::now()))
+    }
+
+    /// Deletes a client and its entities.
+    pub fn delete_client(&self, key: u32) -> Result<StatusCode, OpError> {
+        status(lock(&self.core).delete_client(ClientKey::from_u32(key)))
+    }
+
+    /// Creates a participant from XML in `domain_id` (255: the agent's domain).
+    pub fn create_participant_by_xml(&self, client_key: u32, id: u16, domain_id: i16, xml: &str, flags: u8) -> Result<StatusCode, OpError> {
+        let variant = EntityVariant::participant(Representation::Xml(xml), domain_id);
+        self.create(client_key, ObjectId::new(id, ObjectKind::Participant), &variant, flags)
+    }
+
+    /// Creates a participant from a profile of the loaded refs.
+    pub fn create_participant_by_ref(&self, client_key: u32, id: u16, domain_id: i16, reference: &str, flags: u8) -> Result<StatusCode, OpError> {
+        let variant = EntityVariant::participant(Representation::Reference(reference), domain_id);
+        self.create(client_key, ObjectId::new(id, ObjectKind::Participant), &variant, flags)
+    }
+
+    /// Deletes a participant and everything under it.
+    pub fn delete_participant(&self, client_key: u32, id: u16) -> Result<StatusCode, OpError> {
+        self.delete_entity(ObjectKind::Participant, client_key, id)
+    }
+
+    entity_api!(
+        (Topic, create_topic_by_xml, create_topic_by_ref, delete_topic),
+        (Publisher, create_publisher_by_xml, create_publisher_by_ref, delete_publisher),
+        (Subscriber, create_subscriber_by_xml, create_subscriber_by_ref, delete_subscriber),
+        (DataWriter, create_datawriter_by_xml, create_datawriter_by_ref, delete_datawriter),
+        (DataReader, create_datareader_by_xml, create_datareader_by_ref, delete_datareader),
+        (Requester, create_requester_by_xml, create_requester_by_ref, delete_requester),
+        (Replier, create_replier_by_xml, create_replier_by_ref, delete_replier),
+    );
+
+    fn create_child(&self, kind: ObjectKind, client_key: u32, id: u16, parent_id: u16, repr: Representation<'_>, flags: u8) -> Result<StatusCode, OpError> {
+        let parent_kind = kind.parent().unwrap_or(ObjectKind::Participant);
+        let variant = EntityVariant::child(kind, repr, ObjectId::new(parent_id, parent_kind));
+        self.create(client_key, ObjectId::new(id, kind), &variant, flags)
+    }
+
+    fn create(&self, client_key: u32, id: ObjectId, variant: &EntityVariant<'_>, flags: u8) -> Result<StatusCode, OpError> {
+        status(lock(&self.core).create_entity(ClientKey::from_u32(client_key), id, variant, CreationMode::from_flags(flags)))
+    }
+
+    fn delete_entity(&self, kind: ObjectKind, client_key: u32, id: u16) -> Result<StatusCode, OpError> {
+        status(lock(&self.core).delete_entity(ClientKey::from_u32(client_key), ObjectId::new(id, kind)))
+    }
+
+    /// Loads a refs file (Fast DDS XML profiles) for entities created by reference; returns how many
+    /// profiles it added.
+    pub fn load_config_file(&self, path: impl AsRef<Path>) -> Result<usize, crate::profile::ProfileError> {
+        self.profiles.load_file(path)
+    }
+
+    /// Deletes every client and its entities.
+    pub fn reset(&self) {
+        lock(&self.core).reset();
+    }
+
+    /// Sets the log level, eProsima's 0 (off) .. 6 (trace with hex dumps).
+    pub fn set_verbose_level(&self, level: u8) {
+        crate::logging::set_verbose_level(level);
+    }
+
+    /// Adds a callback fired after each successful create/delete of the matching kind.
+    pub fn add_middleware_callback(&self, kind: CallbackKind, callback: impl Fn(CallbackKind, crate::middleware::EntityRef) + Send + Sync + 'static) {
+        let cb: Callback = Arc::new(callback);
+        self.callbacks.write().unwrap_or_else(std::sync::PoisonError::into_inner).push((kind, cb));
+    }
+}
+
+/// The agent of an [`AgentInstance`], by transport family.
+#[derive(Debug, Clone)]
+pub enum AgentHandle {
+    /// UDP servers: endpoints are socket addresses.
+    Udp(Agent<SocketAddr>),
+    /// TCP servers: endpoints are connections.
+    Tcp(Agent<ConnId>),
+}
+
+/// A running agent built from command-line arguments (eProsima's `AgentInstance`).
+#[derive(Debug)]
+pub struct AgentInstance {
+    config: Config,
+    agent: AgentHandle,
+    stop: Arc<AtomicBool>,
+    server: Option<JoinHandle<std::io::Result<()>>>,
+    local_addr: Option<SocketAddr>,
+}
+
+impl AgentInstance {
+    /// Parses `args` (`args[0]` is the program name) and starts the agent.
+    pub fn create<I, T>(args: I) -> Result<Self, AgentError>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<std::ffi::OsString> + Clone,
+    {
+        Self::from_config(cli::parse_from(args)?)
+    }
+
+    /// Starts an agent for a parsed command line.
+    pub fn from_config(config: Config) -> Result<Self, AgentError> {
+        let kind = to_cli_kind(config.middleware);
+        let stop = Arc::new(AtomicBool::new(false));
+        if config.discovery.is_some() {
+            tracing::warn!("-d/--discovery is not implemented yet; ignored");
+        }
+        if config.p2p.is_some() {
+            tracing::warn!("-P/--p2p is not implemented yet; ignored");
+        }
+        let (agent, server, local_addr) = match config.transport {
+            Transport::Udp4 { port } | Transport::Udp6 { port } => {
+                let agent = Agent::<SocketAddr>::new(kind, CoreConfig { info_port: port, ..CoreConfig::default() })?;
+                load_refs(&config, &agent.profiles)?;
+                let addr = bind_addr(&config.transport, port);
+                let server = UdpServer::bind(addr, agent.core())?;
+                let local = server.local_addr()?;
+                tracing::info!(%local, middleware = kind.name(), "UDP agent running");
+                let stop2 = stop.clone();
+                let handle = std::thread::Builder::new().name("xrce-udp".into()).spawn(move || server.run(&stop2))?;
+                (AgentHandle::Udp(agent), handle, local)
+            }
+            Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
+                let agent = Agent::<ConnId>::new(kind, CoreConfig { info_port: port, ..CoreConfig::default() })?;
+                load_refs(&config, &agent.profiles)?;
+                let addr = bind_addr(&config.transport, port);
+                let server = TcpServer::bind(addr, agent.core())?;
+                let local = server.local_addr()?;
+                tracing::info!(%local, middleware = kind.name(), "TCP agent running");
+                let stop2 = stop.clone();
+                let handle = std::thread::Builder::new().name("xrce-tcp".into()).spawn(move || server.run(&stop2))?;
+                (AgentHandle::Tcp(agent), handle, local)
+            }
+            ref other => return Err(AgentError::Transport(other.name())),
+        };
+        Ok(Self { config, agent, stop, server: Some(server), local_addr: Some(local_addr) })
+    }
+
+    /// The command line it was built from.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The agent, to create clients and entities or add callbacks.
+    pub fn agent(&self) -> &AgentHandle {
+        &self.agent
+    }
+
+    /// The address the server listens on.
+    pub fn local_addr(&self) -> Option<SocketAddr> {
+        self.local_addr
+    }
+
+    /// Setting this flag stops the agent (e.g. from a signal handler).
+    pub fn stop_flag(&self) -> Arc<AtomicBool> {
+        self.stop.clone()
+    }
+
+    /// Blocks until the agent is stopped, then returns the server's result.
+    pub fn run(&mut self) -> Result<(), AgentError> {
+        while !self.stop.load(Ordering::Relaxed) {
+            if self.server.as_ref().is_some_and(JoinHandle::is_finished) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        self.stop()
+    }
+
+    /// Stops the agent and waits for its server to finish.
+    pub fn stop(&mut self) -> Result<(), AgentError> {
+        self.stop.store(true, Ordering::Relaxed);
+        match self.server.take().map(JoinHandle::join) {
+            Some(Ok(result)) => Ok(result?),
+            Some(Err(_)) => Err(AgentError::Io(std::io::Error::other("server thread panicked"))),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for AgentInstance {
+    fn drop(&mut self) {
+        let _ = self.stop();
+    }
+}
+
+fn load_refs(config: &Config, profiles: &StoreProfiles) -> Result<(), AgentError> {
+    if let Some(path) = &config.refs {
+        let n = profiles.load_file(path)?;
+        tracing::info!(path = %path.display(), profiles = n, "refs loaded");
+    }
+    Ok(())
+}
+
+fn bind_addr(transport: &Transport, port: u16) -> SocketAddr {
+    match transport {
+        Transport::Udp6 { .. } | Transport::Tcp6 { .. } => SocketAddr::from((Ipv6Addr::UNSPECIFIED, port)),
+        _ => SocketAddr::from((Ipv4Addr::UNSPECIFIED, port)),
+    }
+}

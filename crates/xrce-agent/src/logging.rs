@@ -1,0 +1,26 @@
+//! eProsima verbosity levels (0..=6) mapped onto `tracing`, changeable at run time
+//! (`Agent::set_verbose_level`).
+
+use std::sync::OnceLock;
+
+use tracing::level_filters::LevelFilter;
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
+use tracing_subscriber::{fmt, reload, Registry};
+
+static HANDLE: OnceLock<reload::Handle<LevelFilter, Registry>> = OnceLock::new();
+
+/// Installs the global logger at `level`, or changes its level if this function installed it before.
+/// Returns false if another global subscriber was installed by someone else (the level is then theirs).
+pub fn set_verbose_level(level: u8) -> bool {
+    let filter = crate::cli::verbosity_to_filter(level);
+    if let Some(handle) = HANDLE.get() {
+        return handle.modify(|f| *f = filter).is_ok();
+    }
+    let (layer, handle) = reload::Layer::new(filter);
+    let installed = Registry::default().with(layer).with(fmt::layer().with_target(false)).try_init().is_ok();
+    if installed {
+        let _ = HANDLE.set(handle);
+    }
+    installed
+}

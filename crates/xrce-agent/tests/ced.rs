@@ -1,0 +1,215 @@
+//! Two clients talking through CED, driven through the core without sockets.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{create_client_msg, unlimited, Client, Harness, Out};
+use xrce_proto::submessage::DataDeliveryControl;
+use xrce_proto::{ObjectId, ObjectKind};
+
+const PUB: u16 = 1;
+const SUB: u16 = 2;
+
+fn setup_pubsub(h: &mut Harness, topic_pub: &str, topic_sub: &str) -> (Client, Client) {
+    let mut p = Client::new(0x1111_1111);
+    let mut s = Client::new(0x2222_2222);
+    h.send(PUB, &create_client_msg(p.key, 0x81));
+    h.send(SUB, &create_client_msg(s.key, 0x81));
+    for m in p.pubsub_entities(topic_pub) {
+        h.send(PUB, &m);
+    }
+    for m in s.pubsub_entities(topic_sub) {
+        h.send(SUB, &m);
+    }
+    assert_eq!(h.statuses(PUB).len(), 6);
+    assert!(h.statuses(PUB).iter().chain(h.statuses(SUB).iter()).all(|(_, st)| *st == 0));
+    (p, s)
+}
+
+#[test]
+fn two_clients_pubsub_reliable_and_best_effort() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "chatter", "chatter");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    h.send(SUB, &s.read(reader, 0x80, unlimited()));
+    for i in 0..40u32 {
+        h.send(PUB, &p.write(i % 2 == 0, writer, &i.to_le_bytes()));
+    }
+    let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+    assert_eq!(got, (0..40).collect::<Vec<_>>());
+    // Best-effort delivery stream.
+    h.send(SUB, &s.read(reader, 0x01, unlimited()));
+    h.send(PUB, &p.write(false, writer, b"be!!"));
+    assert_eq!(h.data(SUB).last().unwrap(), b"be!!");
+    // Different topic: nothing crosses.
+    let before = h.data(SUB).len();
+    let mut other = Client::new(0x3333_3333);
+    h.send(3, &create_client_msg(other.key, 0x81));
+    for m in other.pubsub_entities("other") {
+        h.send(3, &m);
+    }
+    h.send(3, &other.write(false, writer, b"xxxx"));
+    assert_eq!(h.data(SUB).len(), before);
+}
+
+#[test]
+fn delivery_control_limits_samples_and_cancel_stops() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "t", "t");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    // No control: exactly one sample.
+    h.send(SUB, &s.read(reader, 0x80, None));
+    for i in 0..3u8 {
+        h.send(PUB, &p.write(true, writer, &[i]));
+    }
+    assert_eq!(h.data(SUB).len(), 1);
+    // max_samples 3: the ring still holds samples 1 and 2, then one more.
+    h.send(SUB, &s.read(reader, 0x80, Some(DataDeliveryControl { max_samples: 3, ..Default::default() })));
+    for i in 3..10u8 {
+        h.send(PUB, &p.write(true, writer, &[i]));
+    }
+    assert_eq!(h.data(SUB).len(), 4);
+    // Unlimited, then cancel (stream 0, all-zero control).
+    h.send(SUB, &s.read(reader, 0x80, unlimited()));
+    let n = h.data(SUB).len();
+    h.send(SUB, &s.read(reader, 0, Some(DataDeliveryControl::default())));
+    h.send(PUB, &p.write(true, writer, &[99]));
+    assert_eq!(h.data(SUB).len(), n);
+}
+
+#[test]
+fn pace_and_rate_are_honoured() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "t", "t");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    let c = DataDeliveryControl { max_samples: 0xFFFF, min_pace_period: 100, ..Default::default() };
+    h.send(SUB, &s.read(reader, 0x80, Some(c)));
+    for i in 0..5u8 {
+        h.send(PUB, &p.write(true, writer, &[i]));
+    }
+    assert_eq!(h.data(SUB).len(), 1, "pace: one now");
+    h.advance(Duration::from_millis(250));
+    assert_eq!(h.data(SUB).len(), 3, "pace: one per 100 ms");
+    h.advance(Duration::from_secs(1));
+    assert_eq!(h.data(SUB).len(), 5);
+    // max_elapsed_time ends the task.
+    let c = DataDeliveryControl { max_samples: 0xFFFF, max_elapsed_time: 1, ..Default::default() };
+    h.send(SUB, &s.read(reader, 0x80, Some(c)));
+    h.advance(Duration::from_millis(1500));
+    h.send(PUB, &p.write(true, writer, &[42]));
+    assert_eq!(h.data(SUB).len(), 5);
+}
+
+#[test]
+fn request_reply_between_two_clients() {
+    let mut h = Harness::new();
+    let mut req = Client::new(0xA1);
+    let mut rep = Client::new(0xA2);
+    h.send(1, &create_client_msg(req.key, 0x81));
+    h.send(2, &create_client_msg(rep.key, 0x81));
+    for m in req.service_entities("adder", ObjectKind::Requester) {
+        h.send(1, &m);
+    }
+    for m in rep.service_entities("adder", ObjectKind::Replier) {
+        h.send(2, &m);
+    }
+    let requester = ObjectId::new(1, ObjectKind::Requester);
+    let replier = ObjectId::new(1, ObjectKind::Replier);
+    h.send(1, &req.read(requester, 0x80, unlimited()));
+    h.send(2, &rep.read(replier, 0x80, unlimited()));
+    let write = req.write(true, requester, &[1, 0, 0, 0, 2, 0, 0, 0]);
+    let request_id = u16::from_be_bytes([write[8], write[9]]);
+    h.send(1, &write);
+    let got = h.data(2);
+    assert_eq!(got.len(), 1);
+    assert_eq!(&got[0][24..], &[1, 0, 0, 0, 2, 0, 0, 0]);
+    let mut reply = got[0][..24].to_vec();
+    reply.extend_from_slice(&3u32.to_le_bytes());
+    h.send(2, &rep.write(true, replier, &reply));
+    let answers: Vec<(u16, Vec<u8>)> = h
+        .outs(1)
+        .into_iter()
+        .filter_map(|o| match o {
+            Out::Data { data, .. } => Some((u16::from_be_bytes([data[0], data[1]]), data[4..].to_vec())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(answers, vec![(request_id, 3u32.to_le_bytes().to_vec())]);
+}
+
+#[test]
+fn xml_entities_work_on_ced() {
+    let mut h = Harness::new();
+    let packets = common::load_capture("hello_world_pubsub_udp.all.txt");
+    // Only the entity creation parts of both clients, then one hand-made sample.
+    h.replay(&packets[..packets.len().min(40)]);
+    let ok = h.received.keys().all(|port| h.statuses(*port).iter().all(|(_, s)| *s == 0));
+    assert!(ok);
+}
+
+#[test]
+fn delete_removes_children_and_reuse_matches() {
+    let mut h = Harness::new();
+    let (mut p, _s) = setup_pubsub(&mut h, "t", "t");
+    let participant = ObjectId::new(1, ObjectKind::Participant);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    let key = xrce_proto::ClientKey::from_u32(p.key);
+    assert!(h.core.has_object(key, writer));
+    // REUSE of the same participant → OK_MATCHED.
+    let mut m = p.create(participant, xrce_proto::EntityVariant::participant(xrce_proto::Representation::Binary(xrce_proto::object::BinaryObject::Raw(&[0, 0])), 0));
+    m[5] = 0x03; // flags E|REUSE
+    h.send(PUB, &m);
+    assert_eq!(h.statuses(PUB).last().unwrap().1, 0x01);
+    // Without REUSE/REPLACE → ALREADY_EXISTS.
+    let mut m = p.create(participant, xrce_proto::EntityVariant::participant(xrce_proto::Representation::Binary(xrce_proto::object::BinaryObject::Raw(&[0, 0])), 0));
+    m[5] = 0x01;
+    h.send(PUB, &m);
+    assert_eq!(h.statuses(PUB).last().unwrap().1, 0x82);
+    // DELETE participant removes the writer too.
+    let mut req = p.next_request();
+    req.object_id = participant;
+    h.send(PUB, &p.encode(true, &xrce_proto::Submessage::Delete(req)));
+    assert_eq!(h.statuses(PUB).last().unwrap().1, 0x00);
+    assert!(!h.core.has_object(key, writer));
+    // Unknown object → UNKNOWN_REFERENCE.
+    h.send(PUB, &p.encode(true, &xrce_proto::Submessage::Delete(req)));
+    assert_eq!(h.statuses(PUB).last().unwrap().1, 0x84);
+    // Writing to the deleted writer is silently dropped.
+    h.send(PUB, &p.write(true, writer, b"x"));
+}
+
+#[test]
+fn lost_messages_are_retransmitted_and_heartbeats_sent() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "t", "t");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    h.auto_ack = false;
+    h.send(SUB, &s.read(reader, 0x80, unlimited()));
+    for i in 0..20u8 {
+        h.send(PUB, &p.write(false, writer, &[i]));
+    }
+    // Window of 16 without ACKs.
+    assert_eq!(h.data(SUB).len(), 16);
+    h.advance(Duration::from_millis(300));
+    assert!(h.outs(SUB).iter().any(|o| matches!(o, Out::Heartbeat { stream: 0x80, .. })));
+    // A NACK of the first DATA: it is sent again (the harness ignores the duplicate).
+    let first_data_seq = 6u16; // 6 STATUS before the DATA on 0x80
+    let ack = xrce_proto::submessage::AckNack { first_unacked_seq_num: first_data_seq, nack_bitmap: [0, 1], stream_id: 0x80 };
+    let raw = s.encode(false, &xrce_proto::Submessage::AckNack(ack));
+    // ACKNACK travels on stream 0: patch the header's stream.
+    let mut raw = raw;
+    raw[1] = 0;
+    raw[2] = 0;
+    let before = h.core.stats().messages_out;
+    h.send(SUB, &raw);
+    assert!(h.core.stats().messages_out > before + 1);
+    // Acknowledging everything lets the rest flow.
+    h.auto_ack = true;
+    h.advance(Duration::from_millis(300));
+    assert_eq!(h.data(SUB).len(), 20);
+}

@@ -1,0 +1,77 @@
+//! PublishHelloWorldBestEffort: as publish_hello_world but on best-effort streams; creates a participant, topic, publisher and datawriter by XML on a best-effort stream and
+//! publishes `HelloWorld` samples. Usage, as eProsima's example: `publish_hello_world <ip> <port> [<max_topics>]`.
+
+use serde::{Deserialize, Serialize};
+use xrce_client::prelude::*;
+use xrce_proto::serde_cdr;
+
+#[derive(Serialize, Deserialize, Debug)]
+struct HelloWorld<'a> {
+    index: u32,
+    message: &'a str,
+}
+
+const BUFFER_SIZE: usize = 512;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 || args[2].parse::<u16>().is_err() {
+        println!("usage: program [-h | --help] | ip port [<max_topics>]");
+        return Ok(());
+    }
+    let max_topics: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(u32::MAX);
+
+    let transport = UdpTransport::new(IpProtocol::V4, &args[1], &args[2])?;
+    let mut out_buf = [0u8; BUFFER_SIZE];
+
+    let mut session = Session::new(transport, 0xAAAA_BBBB);
+    session.create_session()?;
+    let reliable_out = session.create_output_best_effort_stream(&mut out_buf)?;
+    session.create_input_best_effort_stream()?;
+
+    let participant_id = object_id(0x01, ObjectKind::Participant);
+    let participant_xml = "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
+    let participant_req =
+        session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?;
+    let topic_id = object_id(0x01, ObjectKind::Topic);
+    let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
+    let topic_req = session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?;
+    let publisher_id = object_id(0x01, ObjectKind::Publisher);
+    let publisher_req = session.buffer_create_publisher_xml(reliable_out, publisher_id, participant_id, "", REPLACE)?;
+    let datawriter_id = object_id(0x01, ObjectKind::DataWriter);
+    let datawriter_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
+                          <dataType>HelloWorld</dataType></topic></data_writer></dds>";
+    let datawriter_req =
+        session.buffer_create_datawriter_xml(reliable_out, datawriter_id, publisher_id, datawriter_xml, REPLACE)?;
+
+    let requests = [participant_req, topic_req, publisher_req, datawriter_req];
+    let mut status = [0u8; 4];
+    if !session.run_session_until_all_status(1000, &requests, &mut status)? {
+        println!(
+            "Error at create entities: participant: {} topic: {} publisher: {} datawriter: {}",
+            status[0], status[1], status[2], status[3]
+        );
+        return Ok(());
+    }
+
+    let mut count = 0u32;
+    while count < max_topics {
+        let topic = HelloWorld { index: count, message: "Hello DDS world!" };
+        let size = serde_cdr::serialized_size(&topic)?;
+        match session.prepare_output_stream(reliable_out, datawriter_id, size) {
+            Ok(mut prepared) => {
+                serde_cdr::to_slice(&topic, prepared.buffer())?;
+                count += 1;
+            }
+            // History full: the agent has not acknowledged yet; run the session and retry.
+            Err(Error::WouldBlock) => {}
+            Err(e) => return Err(e.into()),
+        }
+        let connected = session.run_session_time(1000)?;
+        if connected {
+            println!("Sent topic: {}, id: {}", topic.message, topic.index);
+        }
+    }
+    session.delete_session()?;
+    Ok(())
+}

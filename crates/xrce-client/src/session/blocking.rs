@@ -1,0 +1,621 @@
+//! The blocking session: the sans-IO core driven over a [`Transport`] with a [`Clock`], and the `run_session_*`
+//! family with the semantics the C API documents.
+
+use super::{
+    Callbacks, Outputs, PingState, SessionCore, SessionState, TimeSample, MILLIS, SESSION_CONNECTION_INTERVAL_MS,
+};
+use crate::error::{Error, Result};
+use crate::transport::Transport;
+use crate::{WriteAccess, STATUS_NONE};
+use xrce_proto::{ObjectId, SampleIdentity, StreamId};
+
+/// A source of time in nanoseconds since the Unix epoch; it should not go backwards.
+pub trait Clock {
+    /// Current time.
+    fn now_nanos(&mut self) -> i64;
+}
+
+impl<F: FnMut() -> i64> Clock for F {
+    fn now_nanos(&mut self) -> i64 {
+        self()
+    }
+}
+
+/// The system clock read once, then advanced with a monotonic clock, so timers never jump.
+#[cfg(feature = "std")]
+#[derive(Debug, Clone, Copy)]
+pub struct StdClock {
+    base: i64,
+    start: std::time::Instant,
+}
+
+#[cfg(feature = "std")]
+impl Default for StdClock {
+    fn default() -> Self {
+        let base = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+        Self { base, start: std::time::Instant::now() }
+    }
+}
+
+#[cfg(feature = "std")]
+impl Clock for StdClock {
+    fn now_nanos(&mut self) -> i64 {
+        self.base.saturating_add(i64::try_from(self.start.elapsed().as_nanos()).unwrap_or(i64::MAX))
+    }
+}
+
+/// Transport, clock and message buffers: what the loop needs besides the core and the callbacks.
+#[derive(Debug)]
+struct Io<T, K, const MTU: usize> {
+    transport: T,
+    clock: K,
+    rx: [u8; MTU],
+    tx: [u8; MTU],
+}
+
+impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
+    fn send_pending<const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+    ) -> Result<()> {
+        let now = self.clock.now_nanos();
+        while let Some(n) = core.poll_transmit(now, &mut self.tx) {
+            self.transport.send(self.tx.get(..n).unwrap_or(&[]))?;
+        }
+        Ok(())
+    }
+
+    /// Listens for one message up to `timeout_ms` (negative: forever), sending heartbeats and retries while
+    /// waiting; whether one arrived. The C client's `listen_message_reliably`.
+    fn listen<H: Callbacks + ?Sized, const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+        timeout_ms: i32,
+        h: &mut H,
+    ) -> Result<bool> {
+        let start = self.clock.now_nanos();
+        let deadline = (timeout_ms >= 0).then(|| start + i64::from(timeout_ms) * MILLIS);
+        loop {
+            self.send_pending(core)?;
+            let now = self.clock.now_nanos();
+            let until_deadline = deadline.map(|d| (d - now).max(0));
+            let until_timer = core.poll_timeout().map(|t| (t - now).max(0));
+            let wait = match (until_deadline, until_timer) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            };
+            let wait_ms = wait.map_or(-1, |ns| i32::try_from((ns + MILLIS - 1) / MILLIS).unwrap_or(i32::MAX));
+            if let Some(n) = self.transport.recv(&mut self.rx, wait_ms)? {
+                let now = self.clock.now_nanos();
+                core.handle_input(self.rx.get(..n).unwrap_or(&[]), now, h);
+                self.send_pending(core)?;
+                return Ok(true);
+            }
+            if until_deadline == Some(0) || deadline.is_some_and(|d| self.clock.now_nanos() >= d) {
+                return Ok(false);
+            }
+        }
+    }
+}
+
+/// Wraps the user's callbacks to record statuses of awaited requests and whether data arrived.
+struct Tracker<'c, C: ?Sized> {
+    inner: &'c mut C,
+    requests: &'c [u16],
+    statuses: &'c mut [u8],
+    data: bool,
+}
+
+impl<C: Callbacks + ?Sized> Callbacks for Tracker<'_, C> {
+    fn on_status(&mut self, out: &mut Outputs<'_, '_>, object_id: ObjectId, request_id: u16, status: u8) {
+        self.inner.on_status(out, object_id, request_id, status);
+    }
+    fn on_topic(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        stream_id: StreamId,
+        data: &[u8],
+    ) {
+        self.data = true;
+        self.inner.on_topic(out, object_id, request_id, stream_id, data);
+    }
+    fn on_request(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        sample_id: &SampleIdentity,
+        data: &[u8],
+    ) {
+        self.data = true;
+        self.inner.on_request(out, object_id, request_id, sample_id, data);
+    }
+    fn on_reply(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        reply_id: u16,
+        data: &[u8],
+    ) {
+        self.data = true;
+        self.inner.on_reply(out, object_id, request_id, reply_id, data);
+    }
+    fn on_time(&mut self, sample: &TimeSample) -> bool {
+        self.inner.on_time(sample)
+    }
+    fn on_request_status(&mut self, request_id: u16, status: u8) {
+        for (r, s) in self.requests.iter().zip(self.statuses.iter_mut()) {
+            if *r == request_id {
+                *s = status;
+            }
+        }
+        self.inner.on_request_status(request_id, status);
+    }
+}
+
+/// A session over a transport: the C API's `uxrSession` with its `uxrCommunication`.
+///
+/// `C` receives what the agent sends (see [`Callbacks`]); the const parameters bound the streams of each kind
+/// (output best effort, output reliable, input best effort, input reliable) and size the message buffers.
+#[derive(Debug)]
+pub struct Session<
+    'a,
+    T,
+    K,
+    C = (),
+    const OBE: usize = 1,
+    const ORE: usize = 1,
+    const IBE: usize = 1,
+    const IRE: usize = 1,
+    const MTU: usize = 512,
+> {
+    core: SessionCore<'a, OBE, ORE, IBE, IRE>,
+    io: Io<T, K, MTU>,
+    callbacks: C,
+}
+
+#[cfg(feature = "std")]
+impl<'a, T: Transport> Session<'a, T, StdClock> {
+    /// `uxr_init_session`: session 0x81 for client `key` over `transport`, with the system clock, one stream of
+    /// each kind at most and 512-byte messages.
+    pub fn new(transport: T, key: u32) -> Self {
+        Self::with_clock(transport, StdClock::default(), key)
+    }
+}
+
+impl<
+        'a,
+        T: Transport,
+        K: Clock,
+        C: Callbacks,
+        const OBE: usize,
+        const ORE: usize,
+        const IBE: usize,
+        const IRE: usize,
+        const MTU: usize,
+    > Session<'a, T, K, C, OBE, ORE, IBE, IRE, MTU>
+{
+    /// `uxr_init_session` with an explicit clock: session 0x81 for client `key`.
+    pub fn with_clock(transport: T, clock: K, key: u32) -> Self
+    where
+        C: Default,
+    {
+        let mtu = transport.mtu().min(MTU);
+        Self {
+            core: SessionCore::new(super::DEFAULT_SESSION_ID, key, mtu),
+            io: Io { transport, clock, rx: [0; MTU], tx: [0; MTU] },
+            callbacks: C::default(),
+        }
+    }
+
+    /// Uses session id `session_id` (below 0x80 the client key travels in every header). Call before creating
+    /// streams: they are dropped.
+    #[must_use]
+    pub fn with_session_id(mut self, session_id: u8) -> Self {
+        let key = self.core.client_key().to_u32();
+        self.core = SessionCore::new(session_id, key, self.core.mtu());
+        self
+    }
+
+    /// Installs the callbacks (`uxr_set_status_callback`, `uxr_set_topic_callback`, `uxr_set_time_callback`,
+    /// `uxr_set_request_callback`, `uxr_set_reply_callback`, all at once).
+    pub fn with_callbacks<C2: Callbacks>(self, callbacks: C2) -> Session<'a, T, K, C2, OBE, ORE, IBE, IRE, MTU> {
+        Session { core: self.core, io: self.io, callbacks }
+    }
+
+    /// The callbacks, to read what they gathered.
+    pub fn callbacks(&mut self) -> &mut C {
+        &mut self.callbacks
+    }
+
+    /// The sans-IO core.
+    pub fn core(&mut self) -> &mut SessionCore<'a, OBE, ORE, IBE, IRE> {
+        &mut self.core
+    }
+
+    /// The transport.
+    pub fn transport(&mut self) -> &mut T {
+        &mut self.io.transport
+    }
+
+    /// Gives the transport back (`uxr_close_*_transport` is then the transport's business).
+    pub fn into_transport(self) -> T {
+        self.io.transport
+    }
+
+    fn now(&mut self) -> i64 {
+        self.io.clock.now_nanos()
+    }
+
+    // ---- session life ----------------------------------------------------------------------------------
+
+    /// `uxr_create_session`: up to 10 CREATE_CLIENT one second apart.
+    pub fn create_session(&mut self) -> Result<()> {
+        self.create_session_retries(super::CREATE_SESSION_ATTEMPTS)
+    }
+
+    /// `uxr_create_session_retries`.
+    pub fn create_session_retries(&mut self, attempts: usize) -> Result<()> {
+        let now = self.now();
+        self.core.create_session_retries(attempts, now);
+        while self.core.state() == SessionState::Creating {
+            self.io.listen(&mut self.core, SESSION_CONNECTION_INTERVAL_MS as i32, &mut self.callbacks)?;
+        }
+        match self.core.state() {
+            SessionState::Established => Ok(()),
+            SessionState::Refused(s) => Err(Error::Refused(s)),
+            _ => Err(Error::Timeout),
+        }
+    }
+
+    /// `uxr_delete_session`: up to 10 DELETE one second apart; `Ok(true)` when the agent confirmed.
+    pub fn delete_session(&mut self) -> Result<bool> {
+        self.delete_session_retries(super::CREATE_SESSION_ATTEMPTS)
+    }
+
+    /// `uxr_delete_session_retries`.
+    pub fn delete_session_retries(&mut self, attempts: usize) -> Result<bool> {
+        let now = self.now();
+        self.core.delete_session_retries(attempts, now);
+        let mut confirmed = false;
+        while self.core.state() == SessionState::Deleting {
+            confirmed = self.io.listen(&mut self.core, SESSION_CONNECTION_INTERVAL_MS as i32, &mut self.callbacks)?
+                && self.core.state() == SessionState::Deleted;
+        }
+        Ok(confirmed)
+    }
+
+    // ---- streams ---------------------------------------------------------------------------------------
+
+    /// `uxr_create_output_best_effort_stream`.
+    pub fn create_output_best_effort_stream(&mut self, buffer: &'a mut [u8]) -> Result<StreamId> {
+        self.core.create_output_best_effort_stream(buffer)
+    }
+
+    /// `uxr_create_output_reliable_stream`.
+    pub fn create_output_reliable_stream(&mut self, buffer: &'a mut [u8], history: usize) -> Result<StreamId> {
+        self.core.create_output_reliable_stream(buffer, history)
+    }
+
+    /// `uxr_create_input_best_effort_stream`.
+    pub fn create_input_best_effort_stream(&mut self) -> Result<StreamId> {
+        self.core.create_input_best_effort_stream()
+    }
+
+    /// `uxr_create_input_reliable_stream`.
+    pub fn create_input_reliable_stream(&mut self, buffer: &'a mut [u8], history: usize) -> Result<StreamId> {
+        self.core.create_input_reliable_stream(buffer, history)
+    }
+
+    /// `uxr_flash_output_streams`: sends everything written.
+    pub fn flash_output_streams(&mut self) -> Result<()> {
+        self.core.flash_output_streams();
+        self.io.send_pending(&mut self.core)
+    }
+
+    // ---- run_session family ----------------------------------------------------------------------------
+
+    fn remaining(&mut self, start: i64, timeout_ms: i32) -> Option<i32> {
+        if timeout_ms < 0 {
+            return Some(-1);
+        }
+        let elapsed = (self.now() - start) / MILLIS;
+        let left = i64::from(timeout_ms) - elapsed;
+        (left > 0).then(|| i32::try_from(left).unwrap_or(i32::MAX))
+    }
+
+    /// `uxr_run_session_time`: flushes, then listens until no message comes for `timeout_ms` (the wait restarts
+    /// with every message). Whether all reliable output is acknowledged.
+    pub fn run_session_time(&mut self, timeout_ms: i32) -> Result<bool> {
+        self.flash_output_streams()?;
+        while self.io.listen(&mut self.core, timeout_ms, &mut self.callbacks)? {}
+        Ok(self.core.output_streams_confirmed())
+    }
+
+    /// `uxr_run_session_timeout`: flushes, then listens for `timeout_ms` in total. Whether all reliable output
+    /// is acknowledged.
+    pub fn run_session_timeout(&mut self, timeout_ms: i32) -> Result<bool> {
+        self.flash_output_streams()?;
+        let start = self.now();
+        while let Some(left) = self.remaining(start, timeout_ms) {
+            self.io.listen(&mut self.core, left, &mut self.callbacks)?;
+        }
+        Ok(self.core.output_streams_confirmed())
+    }
+
+    /// `uxr_run_session_until_timeout`: flushes, then listens until one message arrives or `timeout_ms` passes.
+    /// Whether a message arrived.
+    pub fn run_session_until_timeout(&mut self, timeout_ms: i32) -> Result<bool> {
+        self.flash_output_streams()?;
+        self.io.listen(&mut self.core, timeout_ms, &mut self.callbacks)
+    }
+
+    /// `uxr_run_session_until_confirm_delivery`: flushes, then listens until every reliable output message is
+    /// acknowledged or `timeout_ms` passes in total. Whether everything was acknowledged.
+    pub fn run_session_until_confirm_delivery(&mut self, timeout_ms: i32) -> Result<bool> {
+        self.flash_output_streams()?;
+        let start = self.now();
+        while !self.core.output_streams_confirmed() {
+            let Some(left) = self.remaining(start, timeout_ms) else { break };
+            self.io.listen(&mut self.core, left, &mut self.callbacks)?;
+        }
+        Ok(self.core.output_streams_confirmed())
+    }
+
+    fn run_until(
+        &mut self,
+        timeout_ms: i32,
+        requests: &[u16],
+        statuses: &mut [u8],
+        mut done: impl FnMut(&[u8], bool) -> bool,
+    ) -> Result<bool> {
+        self.flash_output_streams()?;
+        statuses.fill(STATUS_NONE);
+        let start = self.now();
+        let mut tracker = Tracker { inner: &mut self.callbacks, requests, statuses, data: false };
+        loop {
+            if done(tracker.statuses, tracker.data) {
+                return Ok(true);
+            }
+            let left = if timeout_ms < 0 {
+                -1
+            } else {
+                let elapsed = (self.io.clock.now_nanos() - start) / MILLIS;
+                match i64::from(timeout_ms) - elapsed {
+                    l if l > 0 => i32::try_from(l).unwrap_or(i32::MAX),
+                    _ => return Ok(false),
+                }
+            };
+            self.io.listen(&mut self.core, left, &mut tracker)?;
+        }
+    }
+
+    /// `uxr_run_session_until_all_status`: flushes, then listens until every request of `requests` has a
+    /// status (written at the same position of `statuses`, [`STATUS_NONE`] when none came) or `timeout_ms` passes
+    /// in total. Whether all came and all are `STATUS_OK` or `STATUS_OK_MATCHED`.
+    pub fn run_session_until_all_status(
+        &mut self,
+        timeout_ms: i32,
+        requests: &[u16],
+        statuses: &mut [u8],
+    ) -> Result<bool> {
+        let n = requests.len().min(statuses.len());
+        let statuses = statuses.get_mut(..n).unwrap_or(&mut []);
+        self.run_until(timeout_ms, requests, statuses, |s, _| s.iter().all(|&x| x != STATUS_NONE))?;
+        Ok(statuses.iter().all(|&s| s == crate::STATUS_OK || s == crate::STATUS_OK_MATCHED))
+    }
+
+    /// `uxr_run_session_until_one_status`: as [`run_session_until_all_status`](Self::run_session_until_all_status)
+    /// but stops at the first status; whether it is `STATUS_OK` or `STATUS_OK_MATCHED`.
+    pub fn run_session_until_one_status(
+        &mut self,
+        timeout_ms: i32,
+        requests: &[u16],
+        statuses: &mut [u8],
+    ) -> Result<bool> {
+        let n = requests.len().min(statuses.len());
+        let statuses = statuses.get_mut(..n).unwrap_or(&mut []);
+        self.run_until(timeout_ms, requests, statuses, |s, _| s.iter().any(|&x| x != STATUS_NONE))?;
+        Ok(statuses.iter().any(|&s| s == crate::STATUS_OK || s == crate::STATUS_OK_MATCHED))
+    }
+
+    /// `uxr_run_session_until_data`: flushes, then listens until a sample, request or reply arrives or
+    /// `timeout_ms` passes in total. Whether one arrived.
+    pub fn run_session_until_data(&mut self, timeout_ms: i32) -> Result<bool> {
+        self.run_until(timeout_ms, &[], &mut [], |_, data| data)
+    }
+
+    // ---- time and ping ---------------------------------------------------------------------------------
+
+    /// `uxr_sync_session`: NTP-like exchange with the agent; whether an answer came within `timeout_ms`.
+    pub fn sync_session(&mut self, timeout_ms: i32) -> Result<bool> {
+        self.core.sync();
+        let start = self.now();
+        while !self.core.synced() {
+            let Some(left) = self.remaining(start, timeout_ms) else { break };
+            self.io.listen(&mut self.core, left, &mut self.callbacks)?;
+        }
+        Ok(self.core.synced())
+    }
+
+    /// `uxr_epoch_millis`: milliseconds since the epoch on the agent's clock (after [`sync_session`](Self::sync_session)).
+    pub fn epoch_millis(&mut self) -> i64 {
+        let now = self.now();
+        self.core.epoch_millis(now)
+    }
+
+    /// `uxr_epoch_nanos`.
+    pub fn epoch_nanos(&mut self) -> i64 {
+        let now = self.now();
+        self.core.epoch_nanos(now)
+    }
+
+    /// `uxr_ping_agent_session`: GET_INFO in the session up to `attempts` times, `timeout_ms` apart; whether the
+    /// agent answered and knows the session. Works with every session id, with or without key.
+    pub fn ping_agent_session(&mut self, timeout_ms: i32, attempts: u8) -> Result<bool> {
+        let now = self.now();
+        self.core.ping(i64::from(timeout_ms.max(1)), usize::from(attempts), now);
+        while self.core.ping_state() == PingState::Pending {
+            self.io.listen(&mut self.core, timeout_ms.max(1), &mut self.callbacks)?;
+        }
+        Ok(self.core.ping_state() == PingState::Answered)
+    }
+
+    // ---- continuous fragmentation ----------------------------------------------------------------------
+
+    /// `uxr_prepare_output_stream_fragmented`: starts a WRITE_DATA of `size` bytes for `entity` on reliable
+    /// `stream` that may be larger than the whole history. Write it through the returned writer; whenever the
+    /// history is full the writer calls `flush` (which should run the session, e.g.
+    /// `run_session_until_confirm_delivery`) and goes on while it returns `true`.
+    pub fn prepare_output_stream_fragmented<F>(
+        &mut self,
+        stream: StreamId,
+        entity: ObjectId,
+        size: usize,
+        flush: F,
+    ) -> Result<FragmentedWriter<'_, Self, F>>
+    where
+        F: FnMut(&mut Self) -> bool,
+    {
+        let request_id = self.core.outputs().begin_fragmented(stream, entity, size)?;
+        Ok(FragmentedWriter { session: self, stream, flush, request_id, size, written: 0 })
+    }
+}
+
+impl<
+        'a,
+        T: Transport,
+        K: Clock,
+        C: Callbacks,
+        const OBE: usize,
+        const ORE: usize,
+        const IBE: usize,
+        const IRE: usize,
+        const MTU: usize,
+    > WriteAccess<'a> for Session<'a, T, K, C, OBE, ORE, IBE, IRE, MTU>
+{
+    fn outputs(&mut self) -> Outputs<'_, 'a> {
+        self.core.outputs()
+    }
+}
+
+/// What a [`FragmentedWriter`] needs from its session.
+pub trait FragmentTarget {
+    /// Appends bytes to the fragmented write of `stream`; how many were taken.
+    fn push_fragment(&mut self, stream: StreamId, data: &[u8]) -> Result<usize>;
+}
+
+impl<
+        'a,
+        T: Transport,
+        K: Clock,
+        C: Callbacks,
+        const OBE: usize,
+        const ORE: usize,
+        const IBE: usize,
+        const IRE: usize,
+        const MTU: usize,
+    > FragmentTarget for Session<'a, T, K, C, OBE, ORE, IBE, IRE, MTU>
+{
+    fn push_fragment(&mut self, stream: StreamId, data: &[u8]) -> Result<usize> {
+        self.core.outputs().push_fragmented(stream, data)
+    }
+}
+
+/// Writer of a continuous fragmented sample (`uxr_prepare_output_stream_fragmented`): CDR primitives aligned
+/// from the first byte of the sample, spread over as many messages as needed. Unwritten bytes are sent as zeros.
+#[derive(Debug)]
+pub struct FragmentedWriter<'s, S: FragmentTarget, F: FnMut(&mut S) -> bool> {
+    session: &'s mut S,
+    stream: StreamId,
+    flush: F,
+    /// Request id of the WRITE_DATA.
+    pub request_id: u16,
+    size: usize,
+    written: usize,
+}
+
+impl<S: FragmentTarget, F: FnMut(&mut S) -> bool> FragmentedWriter<'_, S, F> {
+    /// Bytes written so far.
+    pub const fn position(&self) -> usize {
+        self.written
+    }
+
+    /// Writes raw bytes, flushing through the callback whenever the history is full.
+    pub fn write_bytes(&mut self, mut data: &[u8]) -> Result<()> {
+        if self.written + data.len() > self.size {
+            return Err(Error::TooLarge);
+        }
+        while !data.is_empty() {
+            let n = self.session.push_fragment(self.stream, data)?;
+            self.written += n;
+            data = data.get(n..).unwrap_or(&[]);
+            if !data.is_empty() && !(self.flush)(self.session) {
+                return Err(Error::WouldBlock);
+            }
+        }
+        Ok(())
+    }
+
+    /// Pads with zeros to a multiple of `align` from the start of the sample.
+    pub fn align(&mut self, align: usize) -> Result<()> {
+        let pad = xrce_proto::cdr::padding(self.written, align);
+        self.write_bytes([0u8; 8].get(..pad).unwrap_or(&[]))
+    }
+
+    /// Writes a little-endian `u32`, aligned.
+    pub fn write_u32(&mut self, v: u32) -> Result<()> {
+        self.align(4)?;
+        self.write_bytes(&v.to_le_bytes())
+    }
+
+    /// Writes a little-endian `u16`, aligned.
+    pub fn write_u16(&mut self, v: u16) -> Result<()> {
+        self.align(2)?;
+        self.write_bytes(&v.to_le_bytes())
+    }
+
+    /// Writes a little-endian `u64`, aligned to 8.
+    pub fn write_u64(&mut self, v: u64) -> Result<()> {
+        self.align(8)?;
+        self.write_bytes(&v.to_le_bytes())
+    }
+
+    /// Writes a CDR string (length with NUL, bytes, NUL).
+    pub fn write_string(&mut self, s: &str) -> Result<()> {
+        self.write_u32(u32::try_from(s.len() + 1).map_err(|_| Error::TooLarge)?)?;
+        self.write_bytes(s.as_bytes())?;
+        self.write_bytes(&[0])
+    }
+
+    /// Writes a CDR `sequence<octet>`.
+    pub fn write_octet_seq(&mut self, data: &[u8]) -> Result<()> {
+        self.write_u32(u32::try_from(data.len()).map_err(|_| Error::TooLarge)?)?;
+        self.write_bytes(data)
+    }
+
+    /// Pads the rest of the announced size with zeros (also done on drop).
+    pub fn finish(mut self) -> Result<()> {
+        self.pad_rest()
+    }
+
+    fn pad_rest(&mut self) -> Result<()> {
+        while self.written < self.size {
+            let n = (self.size - self.written).min(64);
+            self.write_bytes([0u8; 64].get(..n).unwrap_or(&[]))?;
+        }
+        Ok(())
+    }
+}
+
+impl<S: FragmentTarget, F: FnMut(&mut S) -> bool> Drop for FragmentedWriter<'_, S, F> {
+    fn drop(&mut self) {
+        // The agent expects every announced byte; a failure here leaves the stream busy until re-created.
+        let _ = self.pad_rest();
+    }
+}

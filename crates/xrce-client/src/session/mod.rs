@@ -1,0 +1,713 @@
+//! The session: a sans-IO core ([`SessionCore`]) and, over a [`Transport`](crate::transport::Transport), the
+//! blocking [`Session`] with the `run_session_*` family of the C API.
+//!
+//! The core never touches a socket or a clock. Bytes come in through [`SessionCore::handle_input`] with the
+//! current time, bytes go out through [`SessionCore::poll_transmit`], timers are reported by
+//! [`SessionCore::poll_timeout`], and what the agent says reaches a [`Callbacks`] implementation. Time is
+//! nanoseconds since the Unix epoch (the value time synchronisation needs); only differences are used for timers.
+
+mod blocking;
+mod outputs;
+pub mod ping;
+
+#[cfg(feature = "std")]
+pub use blocking::StdClock;
+pub use blocking::{Clock, Session};
+pub use outputs::{Outputs, Prepared, ServiceNames};
+
+use crate::error::{Error, Result};
+use crate::stream::input_reliable_ready as ready;
+use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
+use outputs::FIRST_REQUEST_ID;
+use xrce_proto::cdr::Endianness;
+use xrce_proto::message::{encode_single, Submessages};
+use xrce_proto::object::ClientRepresentation;
+use xrce_proto::submessage::{info_mask, AckNack, ActivityInfo, DataFormat, GetInfo, Heartbeat, Info};
+use xrce_proto::{
+    BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId, ObjectKind, RequestId, ResultStatus,
+    SampleIdentity, StatusCode, StreamId, StreamKind, Submessage, Time,
+};
+
+/// One millisecond in the core's time unit.
+pub const MILLIS: i64 = 1_000_000;
+/// `UXR_CONFIG_MAX_SESSION_CONNECTION_ATTEMPTS`.
+pub const CREATE_SESSION_ATTEMPTS: usize = 10;
+/// `UXR_CONFIG_MIN_SESSION_CONNECTION_INTERVAL`, in milliseconds.
+pub const SESSION_CONNECTION_INTERVAL_MS: i64 = 1000;
+/// Default session id of the C client (no key in the header).
+pub const DEFAULT_SESSION_ID: u8 = 0x81;
+/// Default MTU of every C client transport but CAN.
+pub const DEFAULT_MTU: usize = 512;
+
+/// What the agent said, delivered while input is processed. Every method has a do-nothing default; `out`
+/// lets a callback write into the output streams (a replier answering from `on_request`, say).
+pub trait Callbacks {
+    /// A STATUS for `request_id` (`uxrOnStatusFunc`); `status` is one of the `STATUS_*` values.
+    fn on_status(&mut self, out: &mut Outputs<'_, '_>, object_id: ObjectId, request_id: u16, status: u8) {
+        let _ = (out, object_id, request_id, status);
+    }
+
+    /// A sample for datareader `object_id`, from the READ_DATA `request_id` (`uxrOnTopicFunc`).
+    fn on_topic(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        stream_id: StreamId,
+        data: &[u8],
+    ) {
+        let _ = (out, object_id, request_id, stream_id, data);
+    }
+
+    /// A request for replier `object_id` (`uxrOnRequestFunc`); answer with `out.buffer_reply(.., sample_id, ..)`.
+    fn on_request(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        sample_id: &SampleIdentity,
+        data: &[u8],
+    ) {
+        let _ = (out, object_id, request_id, sample_id, data);
+    }
+
+    /// A reply for requester `object_id` to the request `reply_id` (`uxrOnReplyFunc`).
+    fn on_reply(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        reply_id: u16,
+        data: &[u8],
+    ) {
+        let _ = (out, object_id, request_id, reply_id, data);
+    }
+
+    /// A time-synchronisation answer (`uxrOnTimeFunc`). Return `true` to take over the computation: the session
+    /// then leaves its clock offset alone, as the C client does when a time callback is set.
+    fn on_time(&mut self, sample: &TimeSample) -> bool {
+        let _ = sample;
+        false
+    }
+
+    /// Bookkeeping hook: a request got a status (STATUS, or `STATUS_OK` for each DATA answering a READ_DATA).
+    /// The blocking session uses it for `run_session_until_*_status`.
+    fn on_request_status(&mut self, request_id: u16, status: u8) {
+        let _ = (request_id, status);
+    }
+}
+
+impl Callbacks for () {}
+
+impl<T: Callbacks + ?Sized> Callbacks for &mut T {
+    fn on_status(&mut self, out: &mut Outputs<'_, '_>, object_id: ObjectId, request_id: u16, status: u8) {
+        (**self).on_status(out, object_id, request_id, status);
+    }
+    fn on_topic(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        stream_id: StreamId,
+        data: &[u8],
+    ) {
+        (**self).on_topic(out, object_id, request_id, stream_id, data);
+    }
+    fn on_request(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        sample_id: &SampleIdentity,
+        data: &[u8],
+    ) {
+        (**self).on_request(out, object_id, request_id, sample_id, data);
+    }
+    fn on_reply(
+        &mut self,
+        out: &mut Outputs<'_, '_>,
+        object_id: ObjectId,
+        request_id: u16,
+        reply_id: u16,
+        data: &[u8],
+    ) {
+        (**self).on_reply(out, object_id, request_id, reply_id, data);
+    }
+    fn on_time(&mut self, sample: &TimeSample) -> bool {
+        (**self).on_time(sample)
+    }
+    fn on_request_status(&mut self, request_id: u16, status: u8) {
+        (**self).on_request_status(request_id, status);
+    }
+}
+
+/// The four timestamps of a time-synchronisation exchange, nanoseconds since the epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TimeSample {
+    /// Client clock when the answer arrived.
+    pub current: i64,
+    /// Agent clock when it answered.
+    pub transmit: i64,
+    /// Agent clock when it received the request.
+    pub received: i64,
+    /// Client clock when the request left (echoed by the agent).
+    pub originate: i64,
+}
+
+impl TimeSample {
+    /// NTP offset, client minus agent: `((t0 + t3) - (t1 + t2)) / 2`, truncated toward zero like C.
+    pub const fn offset(&self) -> i64 {
+        ((self.originate + self.current) - (self.received + self.transmit)) / 2
+    }
+}
+
+/// Where the session is in its life.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SessionState {
+    /// Not created yet.
+    Idle,
+    /// CREATE_CLIENT sent, waiting for STATUS_AGENT.
+    Creating,
+    /// The agent accepted the session.
+    Established,
+    /// The agent refused the session with this status.
+    Refused(u8),
+    /// No STATUS_AGENT after every attempt.
+    CreateTimedOut,
+    /// DELETE of the client sent, waiting for its STATUS.
+    Deleting,
+    /// The agent confirmed the deletion (or every attempt went unanswered).
+    Deleted,
+}
+
+/// Progress of an in-session ping.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PingState {
+    /// No ping asked.
+    Idle,
+    /// Waiting for the pong.
+    Pending,
+    /// The agent answered and knows this session.
+    Answered,
+    /// No valid answer after every attempt.
+    Failed,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Retry {
+    attempts_left: usize,
+    next: i64,
+    period: i64,
+}
+
+impl Retry {
+    /// Whether to send now; `None` when attempts are exhausted and the last wait is over.
+    fn due(&mut self, now: i64) -> Option<bool> {
+        if now < self.next {
+            return Some(false);
+        }
+        if self.attempts_left == 0 {
+            return None;
+        }
+        self.attempts_left -= 1;
+        self.next = now + self.period;
+        Some(true)
+    }
+}
+
+/// Everything but the reliable input streams, so a stored message can be processed while the rest changes.
+#[derive(Debug)]
+struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
+    session_id: u8,
+    key: ClientKey,
+    mtu: usize,
+    state: SessionState,
+    session_retry: Option<Retry>,
+    last_request_id: u16,
+    out_be: [Option<OutputBestEffort<'a>>; OBE],
+    out_rel: [Option<OutputReliable<'a>>; ORE],
+    in_be: [Option<InputBestEffort>; IBE],
+    ping: PingState,
+    ping_retry: Option<Retry>,
+    sync_pending: bool,
+    synced: bool,
+    time_offset: i64,
+    info_reply: Option<BaseObjectRequest>,
+}
+
+impl<'a, const OBE: usize, const ORE: usize, const IBE: usize> State<'a, OBE, ORE, IBE> {
+    fn outputs(&mut self) -> Outputs<'_, 'a> {
+        Outputs {
+            last_request_id: &mut self.last_request_id,
+            best_effort: &mut self.out_be,
+            reliable: &mut self.out_rel,
+        }
+    }
+
+    fn header(&self, stream: StreamId) -> MessageHeader {
+        MessageHeader::new(self.session_id, stream, 0, self.key)
+    }
+}
+
+/// The sans-IO session: streams, reliability, fragmentation, entity requests, session life, ping and time sync.
+///
+/// The const parameters bound the number of streams of each kind like `CONFIG_MAX_OUTPUT_BEST_EFFORT_STREAMS`,
+/// `CONFIG_MAX_OUTPUT_RELIABLE_STREAMS`, `CONFIG_MAX_INPUT_BEST_EFFORT_STREAMS` and
+/// `CONFIG_MAX_INPUT_RELIABLE_STREAMS`; stream buffers are lent by the caller for `'a`.
+#[derive(Debug)]
+pub struct SessionCore<'a, const OBE: usize = 1, const ORE: usize = 1, const IBE: usize = 1, const IRE: usize = 1> {
+    st: State<'a, OBE, ORE, IBE>,
+    in_rel: [Option<InputReliable<'a>>; IRE],
+}
+
+impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize> SessionCore<'a, OBE, ORE, IBE, IRE> {
+    /// `uxr_init_session`: a session `session_id` (below 0x80 the key travels in every header) for client
+    /// `key`, over a transport of `mtu` bytes.
+    pub fn new(session_id: u8, key: u32, mtu: usize) -> Self {
+        Self {
+            st: State {
+                session_id,
+                key: ClientKey::from_u32(key),
+                mtu,
+                state: SessionState::Idle,
+                session_retry: None,
+                last_request_id: FIRST_REQUEST_ID - 1,
+                out_be: [const { None }; OBE],
+                out_rel: [const { None }; ORE],
+                in_be: [const { None }; IBE],
+                ping: PingState::Idle,
+                ping_retry: None,
+                sync_pending: false,
+                synced: false,
+                time_offset: 0,
+                info_reply: None,
+            },
+            in_rel: [const { None }; IRE],
+        }
+    }
+
+    /// The session id.
+    pub const fn session_id(&self) -> u8 {
+        self.st.session_id
+    }
+
+    /// The client key.
+    pub const fn client_key(&self) -> ClientKey {
+        self.st.key
+    }
+
+    /// The MTU messages are built for.
+    pub const fn mtu(&self) -> usize {
+        self.st.mtu
+    }
+
+    /// Where the session is.
+    pub const fn state(&self) -> SessionState {
+        self.st.state
+    }
+
+    fn header_size(&self) -> usize {
+        MessageHeader::size_for(self.st.session_id)
+    }
+
+    // ---- streams ---------------------------------------------------------------------------------------
+
+    /// `uxr_create_output_best_effort_stream`: messages are built in `buffer` (at most the MTU is used).
+    pub fn create_output_best_effort_stream(&mut self, buffer: &'a mut [u8]) -> Result<StreamId> {
+        let hs = self.header_size();
+        let mtu = self.st.mtu;
+        let (index, slot) = free_slot(&mut self.st.out_be)?;
+        *slot = Some(OutputBestEffort::new(buffer, mtu, hs));
+        Ok(StreamId::from_index(index, StreamKind::BestEffort))
+    }
+
+    /// `uxr_create_output_reliable_stream`: `buffer` split into `history` slots (a power of two dividing it).
+    pub fn create_output_reliable_stream(&mut self, buffer: &'a mut [u8], history: usize) -> Result<StreamId> {
+        let hs = self.header_size();
+        let stream = OutputReliable::new(buffer, history, hs)?;
+        let (index, slot) = free_slot(&mut self.st.out_rel)?;
+        *slot = Some(stream);
+        Ok(StreamId::from_index(index, StreamKind::Reliable))
+    }
+
+    /// `uxr_create_input_best_effort_stream`.
+    pub fn create_input_best_effort_stream(&mut self) -> Result<StreamId> {
+        let (index, slot) = free_slot(&mut self.st.in_be)?;
+        *slot = Some(InputBestEffort::new());
+        Ok(StreamId::from_index(index, StreamKind::BestEffort))
+    }
+
+    /// `uxr_create_input_reliable_stream`: `buffer` split into `history` slots (a power of two dividing it).
+    pub fn create_input_reliable_stream(&mut self, buffer: &'a mut [u8], history: usize) -> Result<StreamId> {
+        let stream = InputReliable::new(buffer, history)?;
+        let (index, slot) = free_slot(&mut self.in_rel)?;
+        *slot = Some(stream);
+        Ok(StreamId::from_index(index, StreamKind::Reliable))
+    }
+
+    fn reset_streams(&mut self) {
+        self.st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
+        self.st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+        self.st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
+        self.in_rel.iter_mut().flatten().for_each(InputReliable::reset);
+    }
+
+    /// The output side, to write entity requests and data (also reachable through [`crate::WriteAccess`]).
+    pub fn outputs(&mut self) -> Outputs<'_, 'a> {
+        self.st.outputs()
+    }
+
+    /// `uxr_flash_output_streams`: everything written so far becomes sendable through
+    /// [`poll_transmit`](Self::poll_transmit).
+    pub fn flash_output_streams(&mut self) {
+        self.st.out_be.iter_mut().flatten().for_each(OutputBestEffort::flush);
+        self.st.out_rel.iter_mut().flatten().for_each(OutputReliable::flush);
+    }
+
+    /// Whether every reliable output stream had all its messages acknowledged.
+    pub fn output_streams_confirmed(&self) -> bool {
+        self.st.out_rel.iter().flatten().all(OutputReliable::confirmed)
+    }
+
+    // ---- session life ----------------------------------------------------------------------------------
+
+    /// `uxr_create_session`: starts sending CREATE_CLIENT, up to 10 times one second apart.
+    pub fn create_session(&mut self, now: i64) {
+        self.create_session_retries(CREATE_SESSION_ATTEMPTS, now);
+    }
+
+    /// `uxr_create_session_retries`: as [`create_session`](Self::create_session) with `attempts` sends.
+    pub fn create_session_retries(&mut self, attempts: usize, now: i64) {
+        self.reset_streams();
+        self.st.state = SessionState::Creating;
+        self.st.session_retry =
+            Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
+    }
+
+    /// `uxr_delete_session`: starts sending DELETE of the client, up to 10 times one second apart.
+    pub fn delete_session(&mut self, now: i64) {
+        self.delete_session_retries(CREATE_SESSION_ATTEMPTS, now);
+    }
+
+    /// `uxr_delete_session_retries`.
+    pub fn delete_session_retries(&mut self, attempts: usize, now: i64) {
+        self.st.state = SessionState::Deleting;
+        self.st.session_retry =
+            Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
+    }
+
+    // ---- ping and time ---------------------------------------------------------------------------------
+
+    /// Starts an in-session ping (`uxr_ping_agent_session`): GET_INFO up to `attempts` times, `timeout_ms`
+    /// apart. Unlike the C client this works for every session id, with or without key.
+    pub fn ping(&mut self, timeout_ms: i64, attempts: usize, now: i64) {
+        self.st.ping = PingState::Pending;
+        self.st.ping_retry =
+            Some(Retry { attempts_left: attempts.max(1), next: now, period: timeout_ms.max(1) * MILLIS });
+    }
+
+    /// Progress of the last ping.
+    pub const fn ping_state(&self) -> PingState {
+        self.st.ping
+    }
+
+    /// Starts a time synchronisation (`uxr_sync_session`): a TIMESTAMP goes out with the next transmit.
+    pub fn sync(&mut self) {
+        self.st.sync_pending = true;
+        self.st.synced = false;
+    }
+
+    /// Whether a TIMESTAMP_REPLY arrived since the last [`sync`](Self::sync).
+    pub const fn synced(&self) -> bool {
+        self.st.synced
+    }
+
+    /// Offset of the local clock over the agent's, in nanoseconds (0 before any sync).
+    pub const fn time_offset(&self) -> i64 {
+        self.st.time_offset
+    }
+
+    /// `uxr_epoch_nanos`: the agent's time for local time `now`.
+    pub const fn epoch_nanos(&self, now: i64) -> i64 {
+        now - self.st.time_offset
+    }
+
+    /// `uxr_epoch_millis`.
+    pub const fn epoch_millis(&self, now: i64) -> i64 {
+        self.epoch_nanos(now) / MILLIS
+    }
+
+    // ---- I/O -------------------------------------------------------------------------------------------
+
+    /// Processes one received message, calling `cb` for what it carries.
+    pub fn handle_input<C: Callbacks + ?Sized>(&mut self, msg: &[u8], now: i64, cb: &mut C) {
+        let Ok((header, hs)) = MessageHeader::decode(msg) else { return };
+        if header.session_id != self.st.session_id || header.client_key.is_some_and(|k| k != self.st.key) {
+            return;
+        }
+        let stream = header.stream_id;
+        let index = usize::from(stream.index());
+        match stream.kind() {
+            StreamKind::None => process(&mut self.st, &mut self.in_rel, msg, hs, stream, now, cb),
+            _ if self.st.state != SessionState::Established => {}
+            StreamKind::BestEffort => {
+                if let Some(Some(s)) = self.st.in_be.get_mut(index) {
+                    if s.accept(header.sequence_nr) {
+                        process(&mut self.st, &mut self.in_rel, msg, hs, stream, now, cb);
+                    }
+                }
+            }
+            StreamKind::Reliable => {
+                let verdict = match self.in_rel.get_mut(index) {
+                    Some(Some(s)) => s.receive(header.sequence_nr, msg),
+                    _ => return,
+                };
+                if verdict == Received::Now {
+                    process(&mut self.st, &mut self.in_rel, msg, hs, stream, now, cb);
+                    if let Some(Some(s)) = self.in_rel.get_mut(index) {
+                        s.handled(header.sequence_nr);
+                    }
+                }
+                self.drain(index, stream, now, cb);
+            }
+        }
+    }
+
+    /// Processes the stored messages of reliable input stream `index` that became consecutive.
+    fn drain<C: Callbacks + ?Sized>(&mut self, index: usize, stream: StreamId, now: i64, cb: &mut C) {
+        loop {
+            let Some(Some(s)) = self.in_rel.get_mut(index) else { return };
+            match s.next_ready() {
+                None => return,
+                Some(ready::Message(seq_nr)) => {
+                    if let Some(msg) = s.message(seq_nr) {
+                        let hs = msg.first().map_or(MessageHeader::MAX_SIZE, |&id| MessageHeader::size_for(id));
+                        process(&mut self.st, &mut [], msg, hs, stream, now, cb);
+                    }
+                    s.release(seq_nr, 1);
+                }
+                Some(ready::Fragments { first, count }) => {
+                    let len = s.assemble(first, count);
+                    process(&mut self.st, &mut [], s.assembled(len), 0, stream, now, cb);
+                    s.finish_assembly(first, count);
+                }
+                Some(ready::Broken { first, count }) => s.release(first, count.max(1)),
+            }
+        }
+    }
+
+    /// The next message to send, written to `out`; its length. Call until `None` after every input, every
+    /// write and every timeout. `out` should hold the MTU.
+    pub fn poll_transmit(&mut self, now: i64, out: &mut [u8]) -> Option<usize> {
+        let st = &mut self.st;
+        // Session creation and deletion.
+        if let Some(retry) = st.session_retry.as_mut() {
+            match (st.state, retry.due(now)) {
+                (SessionState::Creating, Some(true)) => {
+                    let header = MessageHeader::new(st.session_id & 0x80, StreamId::NONE, 0, st.key);
+                    let mtu = u16::try_from(st.mtu.saturating_sub(4)).unwrap_or(u16::MAX);
+                    let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                    return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
+                }
+                (SessionState::Deleting, Some(true)) => {
+                    let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
+                    let header = st.header(StreamId::NONE);
+                    return encode_single(out, &header, &Submessage::Delete(req), Endianness::Little).ok();
+                }
+                (SessionState::Creating, None) => {
+                    st.state = SessionState::CreateTimedOut;
+                    st.session_retry = None;
+                }
+                (SessionState::Deleting, None) => {
+                    st.state = SessionState::Deleted;
+                    st.session_retry = None;
+                }
+                (SessionState::Creating | SessionState::Deleting, Some(false)) => {}
+                _ => st.session_retry = None,
+            }
+        }
+        if st.state != SessionState::Established {
+            return None;
+        }
+        let header = st.header(StreamId::NONE);
+        if let Some(request) = st.info_reply.take() {
+            let info = Info {
+                reply: BaseObjectReply {
+                    related_request: request,
+                    result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
+                },
+                config: None,
+                activity: None,
+            };
+            return encode_single(out, &header, &Submessage::Info(info), Endianness::Little).ok();
+        }
+        if let Some(retry) = st.ping_retry.as_mut() {
+            match retry.due(now) {
+                Some(true) => {
+                    let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
+                    let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
+                    return encode_single(out, &header, &Submessage::GetInfo(get), Endianness::Little).ok();
+                }
+                Some(false) => {}
+                None => {
+                    st.ping_retry = None;
+                    st.ping = PingState::Failed;
+                }
+            }
+        }
+        if st.sync_pending {
+            st.sync_pending = false;
+            return encode_single(out, &header, &Submessage::Timestamp(Time::from_nanos(now)), Endianness::Little).ok();
+        }
+        for (i, s) in self.in_rel.iter_mut().enumerate() {
+            let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
+            let (first, bitmap) = s.acknack();
+            let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
+            let ack = AckNack { first_unacked_seq_num: first, nack_bitmap: bitmap.to_be_bytes(), stream_id };
+            return encode_single(out, &header, &Submessage::AckNack(ack), Endianness::Little).ok();
+        }
+        for (i, s) in st.out_rel.iter_mut().enumerate() {
+            let Some(s) = s.as_mut() else { continue };
+            let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable);
+            if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, now, out) {
+                return Some(n);
+            }
+            if let Some((first, last)) = s.poll_heartbeat(now) {
+                let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
+                return encode_single(out, &header, &Submessage::Heartbeat(hb), Endianness::Little).ok();
+            }
+        }
+        for (i, s) in st.out_be.iter_mut().enumerate() {
+            let Some(s) = s.as_mut() else { continue };
+            let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
+            if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, out) {
+                return Some(n);
+            }
+        }
+        None
+    }
+
+    /// The earliest time something will be due without new input (a retry, a heartbeat), if any.
+    pub fn poll_timeout(&self) -> Option<i64> {
+        let st = &self.st;
+        let retries = [st.session_retry, st.ping_retry].into_iter().flatten().map(|r| r.next);
+        let heartbeats = st.out_rel.iter().flatten().filter_map(OutputReliable::heartbeat_deadline);
+        retries.chain(heartbeats).min()
+    }
+
+    /// Whether something is ready to be sent right now.
+    pub fn has_pending_transmit(&self) -> bool {
+        let st = &self.st;
+        st.info_reply.is_some()
+            || st.sync_pending
+            || self.in_rel.iter().flatten().any(InputReliable::ack_pending)
+            || st.out_rel.iter().flatten().any(OutputReliable::has_pending)
+            || st.out_be.iter().flatten().any(|s| !s.is_empty())
+    }
+}
+
+fn free_slot<T>(slots: &mut [Option<T>]) -> Result<(u8, &mut Option<T>)> {
+    let (index, slot) = slots.iter_mut().enumerate().find(|(_, s)| s.is_none()).ok_or(Error::TooManyStreams)?;
+    Ok((u8::try_from(index).map_err(|_| Error::TooManyStreams)?, slot))
+}
+
+/// Processes the submessages of `msg` from `start` (after the header, or 0 for a reassembled message).
+/// `in_rel` is empty when the message itself comes from a reliable input stream's storage.
+#[allow(clippy::too_many_arguments)]
+fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const IBE: usize>(
+    st: &mut State<'a, OBE, ORE, IBE>,
+    in_rel: &mut [Option<InputReliable<'a>>],
+    msg: &[u8],
+    start: usize,
+    stream: StreamId,
+    now: i64,
+    cb: &mut C,
+) {
+    for raw in Submessages::new(msg, start) {
+        let Ok(raw) = raw else { return };
+        let Ok(sub) = raw.decode() else { return };
+        match sub {
+            Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
+                st.session_retry = None;
+                if s.result.status == StatusCode::OK {
+                    st.state = SessionState::Established;
+                    st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
+                    st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+                    st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
+                    in_rel.iter_mut().flatten().for_each(InputReliable::reset);
+                } else {
+                    st.state = SessionState::Refused(s.result.status.0);
+                }
+            }
+            Submessage::Status(reply) if stream == StreamId::NONE => {
+                let deleted = reply.related_request.request_id == RequestId::DELETE_SESSION;
+                if deleted && st.state == SessionState::Deleting {
+                    st.state = SessionState::Deleted;
+                    st.session_retry = None;
+                }
+            }
+            Submessage::Status(reply) => {
+                let request = reply.related_request.request_id.0;
+                let status = reply.result.status.0;
+                cb.on_status(&mut st.outputs(), reply.related_request.object_id, request, status);
+                cb.on_request_status(request, status);
+            }
+            Submessage::Info(info) if st.ping == PingState::Pending => {
+                let available =
+                    matches!(info.activity, Some(ActivityInfo::Agent { availability, .. }) if availability > 0);
+                if available && info.reply.result.implementation_status != 0 {
+                    st.ping = PingState::Answered;
+                    st.ping_retry = None;
+                }
+            }
+            Submessage::GetInfo(get) => st.info_reply = Some(get.request),
+            Submessage::Data(d) => {
+                let request = d.request.request_id.0;
+                let object = d.request.object_id;
+                if d.format == DataFormat::DATA {
+                    let out = &mut st.outputs();
+                    match object.kind() {
+                        ObjectKind::Requester => {
+                            if let Ok((base, data)) = d.split_base_request() {
+                                cb.on_reply(out, object, request, base.request_id.0, data);
+                            }
+                        }
+                        ObjectKind::Replier => {
+                            if let Ok((identity, data)) = d.split_sample_identity() {
+                                cb.on_request(out, object, request, &identity, data);
+                            }
+                        }
+                        _ => cb.on_topic(out, object, request, stream, d.data),
+                    }
+                }
+                cb.on_request_status(request, StatusCode::OK.0);
+            }
+            Submessage::AckNack(a) => {
+                let s = StreamId(a.stream_id);
+                if let (StreamKind::Reliable, Some(Some(out))) = (s.kind(), st.out_rel.get_mut(usize::from(s.index())))
+                {
+                    out.on_acknack(a.first_unacked_seq_num, a.bitmap(), now);
+                }
+            }
+            Submessage::Heartbeat(h) => {
+                let s = StreamId(h.stream_id);
+                if let (StreamKind::Reliable, Some(Some(inp))) = (s.kind(), in_rel.get_mut(usize::from(s.index()))) {
+                    inp.on_heartbeat(h.last_unacked_seq_nr);
+                }
+            }
+            Submessage::TimestampReply(t) => {
+                let sample = TimeSample {
+                    current: now,
+                    transmit: t.transmit_timestamp.as_nanos(),
+                    received: t.receive_timestamp.as_nanos(),
+                    originate: t.originate_timestamp.as_nanos(),
+                };
+                if !cb.on_time(&sample) {
+                    st.time_offset = sample.offset();
+                }
+                st.synced = true;
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,88 @@
+//! UDP transport over IPv4 or IPv6 (`uxr_init_udp_transport`): one message per datagram.
+
+use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
+use std::time::Duration;
+
+use socket2::{Domain, Protocol, Socket, Type};
+
+use super::{Transport, TransportError};
+use crate::session::DEFAULT_MTU;
+
+/// IP version of a transport (`uxrIpProtocol`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IpProtocol {
+    /// `UXR_IPv4`.
+    V4,
+    /// `UXR_IPv6`.
+    V6,
+}
+
+/// Resolves `ip`:`port` to an address of the wanted IP version.
+pub(crate) fn resolve(protocol: IpProtocol, ip: &str, port: &str) -> Result<SocketAddr, TransportError> {
+    let port: u16 = port.trim().parse().map_err(|_| TransportError::NotOpen)?;
+    (ip, port)
+        .to_socket_addrs()?
+        .find(|a| matches!((protocol, a), (IpProtocol::V4, SocketAddr::V4(_)) | (IpProtocol::V6, SocketAddr::V6(_))))
+        .ok_or(TransportError::NotOpen)
+}
+
+/// Converts a C-style timeout (negative: forever; 0: just poll) to a socket timeout.
+pub(crate) fn timeout(ms: i32) -> Option<Duration> {
+    match ms {
+        ms if ms < 0 => None,
+        0 => Some(Duration::from_micros(100)),
+        ms => Some(Duration::from_millis(u64::from(ms.unsigned_abs()))),
+    }
+}
+
+/// A UDP socket connected to one agent.
+#[derive(Debug)]
+pub struct UdpTransport {
+    socket: UdpSocket,
+    mtu: usize,
+}
+
+impl UdpTransport {
+    /// `uxr_init_udp_transport`: agent at `ip`, `port` (as strings, like the C API and the examples' argv).
+    pub fn new(protocol: IpProtocol, ip: &str, port: &str) -> Result<Self, TransportError> {
+        Self::connect(resolve(protocol, ip, port)?)
+    }
+
+    /// A transport to the agent at `agent`.
+    pub fn connect(agent: SocketAddr) -> Result<Self, TransportError> {
+        let socket = Socket::new(Domain::for_address(agent), Type::DGRAM, Some(Protocol::UDP))?;
+        let local: SocketAddr = if agent.is_ipv4() { ([0, 0, 0, 0], 0).into() } else { ([0u16; 8], 0).into() };
+        socket.bind(&local.into())?;
+        socket.connect(&agent.into())?;
+        Ok(Self { socket: socket.into(), mtu: DEFAULT_MTU })
+    }
+
+    /// The local address (the agent identifies keyless sessions by it).
+    pub fn local_addr(&self) -> Result<SocketAddr, TransportError> {
+        Ok(self.socket.local_addr()?)
+    }
+}
+
+impl Transport for UdpTransport {
+    fn mtu(&self) -> usize {
+        self.mtu
+    }
+
+    fn send(&mut self, msg: &[u8]) -> Result<(), TransportError> {
+        match self.socket.send(msg)? {
+            n if n == msg.len() => Ok(()),
+            _ => Err(TransportError::ShortWrite),
+        }
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
+        self.socket.set_read_timeout(timeout(timeout_ms))?;
+        match self.socket.recv(buf) {
+            Ok(n) => Ok(Some(n)),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => Ok(None),
+            // An ICMP "port unreachable" from a previous datagram: nobody listens yet; treat as silence.
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => Ok(None),
+            Err(e) => Err(e.into()),
+        }
+    }
+}

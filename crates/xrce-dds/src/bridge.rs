@@ -1,0 +1,440 @@
+//! Shared DDS participants, raw topics, writers and readers.
+//!
+//! eProsima's agent creates one Fast DDS participant per XRCE participant (21 MiB and several threads
+//! each) and dies at about 210 clients. Here an XRCE participant is only a handle on a DDS participant
+//! shared by every XRCE participant with the same domain and profile, so thousands of clients each with a
+//! datawriter fit in one RustDDS participant (issue 5 item 6).
+
+use std::collections::HashMap;
+use std::net::IpAddr;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::time::Duration;
+
+use rustdds::mio1::Token;
+use rustdds::{no_key, with_key, DomainParticipant, DomainParticipantBuilder, Publisher, QosPolicyBuilder};
+use rustdds::{RTPSEntity, Subscriber, Topic, TopicKind, WriteOptionsBuilder};
+
+use crate::error::DdsError;
+use crate::qos::EndpointQos;
+use crate::raw::{RawAdapter, RawSample};
+use crate::reader::{Dispatcher, Filter, RawSource, SampleIdentity, SampleQueue};
+
+/// XRCE domain id meaning "the agent's domain" (spec §7.3).
+pub const AGENT_DOMAIN: i32 = 255;
+
+/// Environment variable eProsima reads for [`AGENT_DOMAIN`]; 0 when unset.
+pub const DOMAIN_OVERRIDE_ENV: &str = "XRCE_DOMAIN_ID_OVERRIDE";
+
+/// Highest domain id RustDDS can map to UDP ports (7400 + 250 × id + 11 must stay below 65536).
+pub const MAX_DOMAIN_ID: u16 = 232;
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // Poisoning only means a panic elsewhere; the maps stay consistent (single inserts/removes).
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+fn create_err(what: &'static str) -> impl FnOnce(rustdds::dds::CreateError) -> DdsError {
+    move |e| DdsError::Create { what, reason: e.to_string() }
+}
+
+/// How the bridge builds participants.
+#[derive(Debug, Clone, Default)]
+pub struct BridgeConfig {
+    /// Restrict RustDDS to these local addresses (tests pass `127.0.0.1`); `None` uses every interface.
+    pub only_networks: Option<Vec<IpAddr>>,
+    /// Domain used for XRCE domain 255; `None` reads [`DOMAIN_OVERRIDE_ENV`] at each participant creation,
+    /// as eProsima does.
+    pub domain_override: Option<u16>,
+}
+
+/// What makes two XRCE participants share a DDS participant.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ParticipantKey {
+    /// DDS domain (255 already resolved).
+    pub domain_id: u16,
+    /// Participant QoS profile: the profile name for references, a canonical form of the XML's QoS, or
+    /// empty for the default (binary representation).
+    pub profile: String,
+}
+
+/// Creates and shares DDS participants. Cheap to keep for the agent's lifetime; participants live as long
+/// as some [`Participant`] handle (or an entity created from one) does.
+pub struct DdsBridge {
+    config: BridgeConfig,
+    participants: Mutex<HashMap<ParticipantKey, Weak<ParticipantInner>>>,
+}
+
+impl std::fmt::Debug for DdsBridge {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DdsBridge")
+            .field("config", &self.config)
+            .field("participants", &self.participant_count())
+            .finish()
+    }
+}
+
+impl DdsBridge {
+    /// A bridge with no participant yet.
+    pub fn new(config: BridgeConfig) -> Self {
+        Self { config, participants: Mutex::new(HashMap::new()) }
+    }
+
+    /// The DDS domain for an XRCE domain id: 255 becomes the override (environment or config), anything
+    /// else must be a valid RustDDS domain.
+    pub fn resolve_domain(&self, xrce_domain_id: i32) -> Result<u16, DdsError> {
+        let id = if xrce_domain_id == AGENT_DOMAIN {
+            match self.config.domain_override {
+                Some(d) => i32::from(d),
+                None => match std::env::var(DOMAIN_OVERRIDE_ENV) {
+                    Ok(v) => v.trim().parse::<i32>().map_err(|_| DdsError::InvalidDomain(-1))?,
+                    Err(_) => 0,
+                },
+            }
+        } else {
+            xrce_domain_id
+        };
+        match u16::try_from(id) {
+            Ok(d) if d <= MAX_DOMAIN_ID => Ok(d),
+            _ => Err(DdsError::InvalidDomain(id)),
+        }
+    }
+
+    /// The shared participant for `(domain, profile)`, created on first use. `xrce_domain_id` 255 means
+    /// the agent's domain.
+    pub fn participant(&self, xrce_domain_id: i32, profile: &str) -> Result<Participant, DdsError> {
+        let key = ParticipantKey { domain_id: self.resolve_domain(xrce_domain_id)?, profile: profile.to_owned() };
+        let mut map = lock(&self.participants);
+        if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
+            return Ok(Participant { inner });
+        }
+        map.retain(|_, w| w.strong_count() > 0);
+        let inner = Arc::new(ParticipantInner::new(key.clone(), &self.config)?);
+        map.insert(key, Arc::downgrade(&inner));
+        tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created");
+        Ok(Participant { inner })
+    }
+
+    /// DDS participants alive now.
+    pub fn participant_count(&self) -> usize {
+        lock(&self.participants).values().filter(|w| w.strong_count() > 0).count()
+    }
+}
+
+struct TopicEntry {
+    topic: Topic,
+    type_name: String,
+    keyed: bool,
+}
+
+struct ParticipantInner {
+    // Field order is drop order: the dispatcher (and the RustDDS readers it owns) goes before the
+    // subscriber, publisher and participant they were created from.
+    dispatcher: Dispatcher,
+    topics: Mutex<HashMap<String, TopicEntry>>,
+    subscriber: Subscriber,
+    publisher: Publisher,
+    participant: DomainParticipant,
+    key: ParticipantKey,
+}
+
+impl ParticipantInner {
+    fn new(key: ParticipantKey, config: &BridgeConfig) -> Result<Self, DdsError> {
+        let mut builder = DomainParticipantBuilder::new(key.domain_id);
+        if let Some(nets) = &config.only_networks {
+            builder = builder.with_only_networks(nets.iter().copied());
+        }
+        let participant = builder.build().map_err(create_err("participant"))?;
+        // Group QoS is empty on purpose: every endpoint gets its full QoS explicitly.
+        let empty = QosPolicyBuilder::new().build();
+        let publisher = participant.create_publisher(&empty).map_err(create_err("publisher"))?;
+        let subscriber = participant.create_subscriber(&empty).map_err(create_err("subscriber"))?;
+        let dispatcher = Dispatcher::start(format!("xrce-dds-d{}", key.domain_id))?;
+        Ok(Self { dispatcher, topics: Mutex::new(HashMap::new()), subscriber, publisher, participant, key })
+    }
+}
+
+/// A handle on a shared DDS participant. Clone it freely: every XRCE participant of the same domain and
+/// profile holds one.
+#[derive(Clone)]
+pub struct Participant {
+    inner: Arc<ParticipantInner>,
+}
+
+impl std::fmt::Debug for Participant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Participant").field("key", &self.inner.key).finish()
+    }
+}
+
+/// A raw topic: name, type name (a runtime string, never a Rust type) and key kind.
+#[derive(Clone)]
+pub struct RawTopic {
+    topic: Topic,
+    keyed: bool,
+}
+
+impl std::fmt::Debug for RawTopic {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use rustdds::TopicDescription;
+        f.debug_struct("RawTopic")
+            .field("name", &self.topic.name())
+            .field("type", &self.topic.get_type().name())
+            .field("keyed", &self.keyed)
+            .finish()
+    }
+}
+
+impl RawTopic {
+    /// Topic name.
+    pub fn name(&self) -> String {
+        use rustdds::TopicDescription;
+        self.topic.name()
+    }
+
+    /// Type name.
+    pub fn type_name(&self) -> String {
+        use rustdds::TopicDescription;
+        self.topic.get_type().name().to_owned()
+    }
+
+    /// Whether the topic is keyed.
+    pub fn is_keyed(&self) -> bool {
+        self.keyed
+    }
+}
+
+impl Participant {
+    /// Domain and profile this participant serves.
+    pub fn key(&self) -> &ParticipantKey {
+        &self.inner.key
+    }
+
+    /// The DDS participant's GUID.
+    pub fn guid(&self) -> [u8; 16] {
+        self.inner.participant.guid().to_bytes()
+    }
+
+    /// The participant's topic `name`, created on first use. A second request with another type name or
+    /// key kind fails: DDS allows one type per topic name in a participant.
+    pub fn topic(&self, name: &str, type_name: &str, keyed: bool) -> Result<RawTopic, DdsError> {
+        let mut topics = lock(&self.inner.topics);
+        if let Some(e) = topics.get(name) {
+            if e.type_name != type_name || e.keyed != keyed {
+                return Err(DdsError::TopicMismatch {
+                    name: name.to_owned(),
+                    existing_type: e.type_name.clone(),
+                    existing_keyed: e.keyed,
+                });
+            }
+            return Ok(RawTopic { topic: e.topic.clone(), keyed });
+        }
+        let kind = if keyed { TopicKind::WithKey } else { TopicKind::NoKey };
+        // Empty topic QoS: endpoints carry their own, and RustDDS sizes the topic cache from the readers.
+        let topic = self
+            .inner
+            .participant
+            .create_topic(name.to_owned(), type_name.to_owned(), &QosPolicyBuilder::new().build(), kind)
+            .map_err(create_err("topic"))?;
+        topics.insert(name.to_owned(), TopicEntry { topic: topic.clone(), type_name: type_name.to_owned(), keyed });
+        Ok(RawTopic { topic, keyed })
+    }
+
+    /// A datawriter on `topic`.
+    pub fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {
+        let q = qos.to_rustdds(false);
+        let kind = if topic.keyed {
+            WriterKind::Keyed(
+                self.inner
+                    .publisher
+                    .create_datawriter::<RawSample, RawAdapter>(&topic.topic, Some(q))
+                    .map_err(create_err("datawriter"))?,
+            )
+        } else {
+            WriterKind::NoKey(
+                self.inner
+                    .publisher
+                    .create_datawriter_no_key::<RawSample, RawAdapter>(&topic.topic, Some(q))
+                    .map_err(create_err("datawriter"))?,
+            )
+        };
+        Ok(RawWriter { kind, matched: AtomicUsize::new(0), _participant: Arc::clone(&self.inner) })
+    }
+
+    /// A datareader on `topic`; received samples appear in its [`SampleQueue`].
+    pub fn create_reader(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawReader, DdsError> {
+        self.create_reader_filtered(topic, qos, None)
+    }
+
+    pub(crate) fn create_reader_filtered(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+        filter: Option<Filter>,
+    ) -> Result<RawReader, DdsError> {
+        let (source, guid): (Box<dyn RawSource>, [u8; 16]) = if topic.keyed {
+            let r = self
+                .inner
+                .subscriber
+                .create_datareader::<RawSample, RawAdapter>(&topic.topic, Some(qos.to_rustdds(true)))
+                .map_err(create_err("datareader"))?;
+            let g = r.guid().to_bytes();
+            (Box::new(r), g)
+        } else {
+            let r = self
+                .inner
+                .subscriber
+                .create_simple_datareader_no_key::<RawSample, RawAdapter>(&topic.topic, Some(qos.to_rustdds(false)))
+                .map_err(create_err("datareader"))?;
+            let g = r.guid().to_bytes();
+            (Box::new(r), g)
+        };
+        let (queue, token) = self.inner.dispatcher.add(source, qos.queue_capacity(), filter)?;
+        Ok(RawReader { queue, token, guid, participant: Arc::clone(&self.inner) })
+    }
+}
+
+enum WriterKind {
+    NoKey(no_key::DataWriter<RawSample, RawAdapter>),
+    Keyed(with_key::DataWriter<RawSample, RawAdapter>),
+}
+
+/// A raw datawriter: publishes XRCE payloads (CDR bodies) as DDS samples.
+pub struct RawWriter {
+    kind: WriterKind,
+    /// Last known matched reader count (status events are consumed when read).
+    matched: AtomicUsize,
+    // Keeps the shared participant alive as long as one of its writers is.
+    _participant: Arc<ParticipantInner>,
+}
+
+impl std::fmt::Debug for RawWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RawWriter").field("guid", &self.guid()).finish()
+    }
+}
+
+impl RawWriter {
+    /// Publishes one sample whose CDR body is `body` (RustDDS adds the `00 01 00 00` header). Returns the
+    /// sample's identity. A reliable write blocks at most the QoS' `max_blocking_time` when the send
+    /// window is full, then fails with [`DdsError::Resources`].
+    pub fn write(&self, body: &[u8]) -> Result<SampleIdentity, DdsError> {
+        self.write_related(body, None)
+    }
+
+    /// As [`RawWriter::write`], with the related sample identity (replies) sent as inline QoS.
+    pub fn write_related(&self, body: &[u8], related: Option<SampleIdentity>) -> Result<SampleIdentity, DdsError> {
+        let sample = RawSample { body: rustdds::bytes::Bytes::copy_from_slice(body), encapsulation: [0, 1] };
+        let opts =
+            WriteOptionsBuilder::new().related_sample_identity_opt(related.map(SampleIdentity::to_rustdds)).build();
+        let res = match &self.kind {
+            WriterKind::NoKey(w) => w.write_with_options(sample, opts).map_err(|e| e.forget_data()),
+            WriterKind::Keyed(w) => w.write_with_options(sample, opts).map_err(|e| e.forget_data()),
+        };
+        match res {
+            Ok(id) => Ok(SampleIdentity::from_rustdds(id)),
+            Err(rustdds::dds::WriteError::WouldBlock { .. }) => {
+                Err(DdsError::Resources("reliable send window full".to_owned()))
+            }
+            Err(e) => Err(DdsError::Write(e.to_string())),
+        }
+    }
+
+    /// The writer's GUID (the `writer_guid` of every identity it returns).
+    pub fn guid(&self) -> [u8; 16] {
+        match &self.kind {
+            WriterKind::NoKey(w) => w.guid().to_bytes(),
+            WriterKind::Keyed(w) => w.guid().to_bytes(),
+        }
+    }
+
+    /// Readers currently matched (discovered and QoS-compatible), from the writer's PUBLICATION_MATCHED
+    /// status events (RustDDS' `get_matched_subscriptions` is a panicking placeholder in 0.15.1).
+    pub fn matched_readers(&self) -> usize {
+        use rustdds::{DataWriterStatus, StatusEvented};
+        let mut last = None;
+        loop {
+            let st = match &self.kind {
+                WriterKind::NoKey(w) => w.try_recv_status(),
+                WriterKind::Keyed(w) => w.try_recv_status(),
+            };
+            match st {
+                Some(DataWriterStatus::PublicationMatched { current, .. }) => last = Some(current.count()),
+                Some(_) => {}
+                None => break,
+            }
+        }
+        if let Some(c) = last {
+            self.matched.store(usize::try_from(c).unwrap_or(0), Ordering::Relaxed);
+        }
+        self.matched.load(Ordering::Relaxed)
+    }
+
+    /// Waits until every matched reliable reader acknowledged everything written; `Ok(false)` on timeout.
+    pub fn wait_for_acknowledgments(&self, max_wait: Duration) -> Result<bool, DdsError> {
+        let d = max_wait;
+        let r = match &self.kind {
+            WriterKind::NoKey(w) => w.wait_for_acknowledgments(d),
+            WriterKind::Keyed(w) => w.wait_for_acknowledgments(d),
+        };
+        r.map_err(|e| DdsError::Write(e.to_string()))
+    }
+}
+
+/// A raw datareader: its samples are delivered by the participant's dispatcher into [`RawReader::queue`].
+pub struct RawReader {
+    queue: SampleQueue,
+    token: Token,
+    guid: [u8; 16],
+    participant: Arc<ParticipantInner>,
+}
+
+impl std::fmt::Debug for RawReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RawReader").field("guid", &self.guid).field("queue", &self.queue).finish()
+    }
+}
+
+impl RawReader {
+    /// The queue the agent drains (or waits on).
+    pub fn queue(&self) -> &SampleQueue {
+        &self.queue
+    }
+
+    /// The reader's GUID.
+    pub fn guid(&self) -> [u8; 16] {
+        self.guid
+    }
+}
+
+impl Drop for RawReader {
+    fn drop(&mut self) {
+        self.participant.dispatcher.remove(self.token);
+    }
+}
+
+pub(crate) fn lock_pending(m: &Mutex<crate::service::Pending>) -> MutexGuard<'_, crate::service::Pending> {
+    lock(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn domain_255_takes_the_override_and_others_are_checked() {
+        let b = DdsBridge::new(BridgeConfig { only_networks: None, domain_override: Some(42) });
+        assert_eq!(b.resolve_domain(255).unwrap(), 42);
+        assert_eq!(b.resolve_domain(7).unwrap(), 7);
+        assert!(b.resolve_domain(233).is_err());
+        assert!(b.resolve_domain(-1).is_err());
+        // Without an override in the config, the environment decides (0 when unset); the variable is not
+        // set by this test to keep it free of process-global state.
+        let b = DdsBridge::new(BridgeConfig::default());
+        let expected = std::env::var(DOMAIN_OVERRIDE_ENV).ok().and_then(|v| v.trim().parse::<u16>().ok()).unwrap_or(0);
+        if expected <= MAX_DOMAIN_ID {
+            assert_eq!(b.resolve_domain(255).unwrap(), expected);
+        }
+        assert_eq!(b.participant_count(), 0);
+    }
+}

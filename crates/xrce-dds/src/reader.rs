@@ -1,0 +1,480 @@
+//! Delivery of received samples to the agent without polling loops.
+//!
+//! Each participant runs one dispatcher thread that waits on a `mio` poll in which every RustDDS reader of
+//! the participant is registered. When RustDDS signals new data, the dispatcher takes it in batches (never
+//! one `take_next_sample` at a time: RustDDS' sample cache scans all queued samples per call, which degrades
+//! to tens of samples/s with 100k queued) and appends it to the reader's bounded [`SampleQueue`], then calls
+//! the queue's waker. The agent drains queues from its own thread whenever it is woken; it never spins.
+//!
+//! Back-pressure: a queue holds at most its capacity (the reader's history depth, or its resource limit
+//! for KEEP_ALL). When it is full the dispatcher stops taking from that reader, so samples stay in RustDDS
+//! (bounded by its resource limits); once the agent has drained half the queue, the dispatcher resumes.
+
+use std::collections::{HashMap, VecDeque};
+use std::io;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use rustdds::mio1::{Events, Interest, Poll, Registry, Token, Waker as MioWaker};
+use rustdds::{no_key, with_key, ReadCondition};
+
+use crate::error::DdsError;
+use crate::raw::{RawAdapter, RawSample};
+
+/// How many samples the dispatcher moves from RustDDS to a queue per call. Large enough to amortize
+/// RustDDS' per-call cache scan, small enough to interleave readers fairly.
+const BATCH: usize = 512;
+
+/// Token of the dispatcher's own command waker; reader tokens start above it.
+const COMMAND_TOKEN: Token = Token(0);
+
+/// Identity of a DDS sample: the GUID of the writer that wrote it and its sequence number. Requesters and
+/// repliers correlate replies with it (DDS-RPC "related sample identity").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SampleIdentity {
+    /// Writer GUID: 12-byte prefix then 4-byte entity id, as on the wire.
+    pub writer_guid: [u8; 16],
+    /// RTPS sequence number (64-bit; the XRCE encoding splits it in high `i32` and low `u32`).
+    pub sequence_number: i64,
+}
+
+impl SampleIdentity {
+    pub(crate) fn from_rustdds(id: rustdds::SampleIdentity) -> Self {
+        Self { writer_guid: id.writer_guid.to_bytes(), sequence_number: i64::from(id.sequence_number) }
+    }
+
+    pub(crate) fn to_rustdds(self) -> rustdds::SampleIdentity {
+        rustdds::SampleIdentity {
+            writer_guid: rustdds::GUID::from_bytes(self.writer_guid),
+            sequence_number: rustdds::SequenceNumber::from(self.sequence_number),
+        }
+    }
+
+    /// Sequence number split as XRCE and Fast DDS carry it: `(high, low)`.
+    pub fn sequence_parts(&self) -> (i32, u32) {
+        let high = i32::try_from(self.sequence_number >> 32).unwrap_or(i32::MAX);
+        let low = (self.sequence_number & 0xFFFF_FFFF) as u32;
+        (high, low)
+    }
+
+    /// Builds the 64-bit sequence number from XRCE's `(high, low)`.
+    pub fn from_parts(writer_guid: [u8; 16], high: i32, low: u32) -> Self {
+        Self { writer_guid, sequence_number: (i64::from(high) << 32) | i64::from(low) }
+    }
+}
+
+/// A sample received from DDS.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReceivedSample {
+    /// The CDR body, encapsulation header removed (what an XRCE DATA carries, spec §8.4).
+    pub data: Vec<u8>,
+    /// The encapsulation identifier that was removed (`[0, 1]` = CDR little endian, the usual case).
+    pub encapsulation: [u8; 2],
+    /// Who wrote it: writer GUID and sequence number (a replier answers with it).
+    pub identity: SampleIdentity,
+    /// The related sample identity the writer attached (replies carry the identity of their request).
+    pub related_identity: Option<SampleIdentity>,
+    /// For replies delivered to a [`Requester`](crate::Requester): the XRCE request id that was given to
+    /// [`Requester::write_request`](crate::Requester::write_request) for the matching request.
+    pub request_id: Option<u32>,
+}
+
+/// Called when a queue receives samples while it was empty; the agent uses it to wake its transport shell.
+pub type QueueWaker = Arc<dyn Fn() + Send + Sync>;
+
+/// Transforms or drops a sample before it is queued (requesters keep only replies to their own requests).
+pub(crate) type Filter = Box<dyn FnMut(ReceivedSample) -> Option<ReceivedSample> + Send>;
+
+struct QueueState {
+    samples: VecDeque<ReceivedSample>,
+    /// Set by the dispatcher when it stopped taking because the queue was full.
+    paused: bool,
+    waker: Option<QueueWaker>,
+    /// Samples queued since creation (statistics, tests).
+    received: u64,
+}
+
+struct QueueShared {
+    state: Mutex<QueueState>,
+    cond: Condvar,
+    capacity: usize,
+    token: Token,
+    control: Arc<Control>,
+}
+
+impl QueueShared {
+    fn lock(&self) -> MutexGuard<'_, QueueState> {
+        // A poisoned lock only means another thread panicked while holding it; the queue itself stays
+        // consistent (every mutation is a single push/pop), so keep going.
+        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+/// The bounded queue of one reader, filled by the dispatcher thread and drained by the agent.
+#[derive(Clone)]
+pub struct SampleQueue {
+    shared: Arc<QueueShared>,
+}
+
+impl std::fmt::Debug for SampleQueue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SampleQueue").field("len", &self.len()).field("capacity", &self.shared.capacity).finish()
+    }
+}
+
+impl SampleQueue {
+    /// Samples waiting.
+    pub fn len(&self) -> usize {
+        self.shared.lock().samples.len()
+    }
+
+    /// Whether no sample waits.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Most samples the queue holds before the dispatcher stops taking from DDS.
+    pub fn capacity(&self) -> usize {
+        self.shared.capacity
+    }
+
+    /// Samples queued since the reader was created.
+    pub fn received(&self) -> u64 {
+        self.shared.lock().received
+    }
+
+    /// Length of the body of the next sample, without taking it (the agent checks it against its
+    /// READ_DATA rate limit before taking).
+    pub fn next_len(&self) -> Option<usize> {
+        self.shared.lock().samples.front().map(|s| s.data.len())
+    }
+
+    /// Takes the next sample.
+    pub fn pop(&self) -> Option<ReceivedSample> {
+        let mut st = self.shared.lock();
+        let s = st.samples.pop_front();
+        self.maybe_resume(&mut st);
+        s
+    }
+
+    /// Moves up to `max` samples into `out`; returns how many.
+    pub fn take_batch(&self, max: usize, out: &mut Vec<ReceivedSample>) -> usize {
+        let mut st = self.shared.lock();
+        let n = max.min(st.samples.len());
+        out.extend(st.samples.drain(..n));
+        self.maybe_resume(&mut st);
+        n
+    }
+
+    /// Blocks until a sample is queued or `timeout` passes; returns whether one is queued. For tests and
+    /// simple consumers; the agent uses [`SampleQueue::set_waker`] instead.
+    pub fn wait(&self, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        let mut st = self.shared.lock();
+        while st.samples.is_empty() {
+            let now = Instant::now();
+            if now >= deadline {
+                return false;
+            }
+            st = match self.shared.cond.wait_timeout(st, deadline - now) {
+                Ok((g, _)) => g,
+                Err(p) => p.into_inner().0,
+            };
+        }
+        true
+    }
+
+    /// Installs (or removes) the callback run when samples arrive in an empty queue. If samples are already
+    /// waiting, it is called at once so none is overlooked.
+    pub fn set_waker(&self, waker: Option<QueueWaker>) {
+        let call = {
+            let mut st = self.shared.lock();
+            st.waker = waker.clone();
+            !st.samples.is_empty()
+        };
+        if let (true, Some(w)) = (call, waker) {
+            w();
+        }
+    }
+
+    fn maybe_resume(&self, st: &mut QueueState) {
+        if st.paused && st.samples.len() <= self.shared.capacity / 2 {
+            st.paused = false;
+            self.shared.control.send(Command::Resume(self.shared.token));
+        }
+    }
+}
+
+/// A RustDDS reader the dispatcher can register and drain.
+pub(crate) trait RawSource: Send {
+    fn register(&mut self, registry: &Registry, token: Token) -> io::Result<()>;
+    fn deregister(&mut self, registry: &Registry);
+    /// Appends up to `max` samples to `out`.
+    fn take(&mut self, max: usize, out: &mut Vec<ReceivedSample>);
+}
+
+fn to_received(
+    sample: RawSample,
+    identity: rustdds::SampleIdentity,
+    related: Option<rustdds::SampleIdentity>,
+) -> ReceivedSample {
+    ReceivedSample {
+        data: Vec::from(sample.body),
+        encapsulation: sample.encapsulation,
+        identity: SampleIdentity::from_rustdds(identity),
+        related_identity: related.map(SampleIdentity::from_rustdds),
+        request_id: None,
+    }
+}
+
+/// Unkeyed topics use RustDDS' `SimpleDataReader`: no second sample cache, constant cost per sample, and
+/// it exposes writer GUID, sequence number and write options (related sample identity) directly.
+impl RawSource for no_key::SimpleDataReader<RawSample, RawAdapter> {
+    fn register(&mut self, registry: &Registry, token: Token) -> io::Result<()> {
+        rustdds::mio1::event::Source::register(self, registry, token, Interest::READABLE)
+    }
+
+    fn deregister(&mut self, registry: &Registry) {
+        if let Err(e) = rustdds::mio1::event::Source::deregister(self, registry) {
+            tracing::debug!("deregistering reader: {e}");
+        }
+    }
+
+    fn take(&mut self, max: usize, out: &mut Vec<ReceivedSample>) {
+        // Must precede the takes, or a notification for data that arrives meanwhile could be lost.
+        self.drain_read_notifications();
+        for _ in 0..max {
+            match self.try_take_one() {
+                Ok(Some(dcc)) => {
+                    let identity =
+                        rustdds::SampleIdentity { writer_guid: dcc.writer_guid, sequence_number: dcc.sequence_number };
+                    let related = dcc.write_options.related_sample_identity();
+                    out.push(to_received(dcc.sample, identity, related));
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    tracing::warn!("dropping undecodable sample: {e}");
+                }
+            }
+        }
+    }
+}
+
+/// Keyed topics need RustDDS' full `DataReader` (the simple one is not public for keyed topics); it is
+/// drained with `take(batch)`.
+impl RawSource for with_key::DataReader<RawSample, RawAdapter> {
+    fn register(&mut self, registry: &Registry, token: Token) -> io::Result<()> {
+        rustdds::mio1::event::Source::register(self, registry, token, Interest::READABLE)
+    }
+
+    fn deregister(&mut self, registry: &Registry) {
+        if let Err(e) = rustdds::mio1::event::Source::deregister(self, registry) {
+            tracing::debug!("deregistering reader: {e}");
+        }
+    }
+
+    fn take(&mut self, max: usize, out: &mut Vec<ReceivedSample>) {
+        match with_key::DataReader::take(self, max, ReadCondition::not_read()) {
+            Ok(samples) => {
+                for ds in samples {
+                    let info = ds.sample_info();
+                    let identity = info.sample_identity();
+                    let related = info.related_sample_identity();
+                    // Dispose/unregister notifications carry no data for an XRCE client.
+                    if let Some(sample) = ds.into_value().value() {
+                        out.push(to_received(sample, identity, related));
+                    }
+                }
+            }
+            Err(e) => tracing::warn!("taking from keyed reader: {e}"),
+        }
+    }
+}
+
+enum Command {
+    Add { token: Token, source: Box<dyn RawSource>, queue: Arc<QueueShared>, filter: Option<Filter> },
+    Remove(Token),
+    Resume(Token),
+    Stop,
+}
+
+/// Sending side of the dispatcher: commands plus the `mio` waker that interrupts its poll.
+pub(crate) struct Control {
+    tx: mpsc::Sender<Command>,
+    waker: MioWaker,
+    next_token: AtomicUsize,
+}
+
+impl Control {
+    fn send(&self, cmd: Command) -> bool {
+        if self.tx.send(cmd).is_err() {
+            return false;
+        }
+        if let Err(e) = self.waker.wake() {
+            tracing::warn!("waking dispatcher: {e}");
+        }
+        true
+    }
+}
+
+/// The dispatcher thread of one participant. Dropping it stops the thread and drops its RustDDS readers.
+pub(crate) struct Dispatcher {
+    control: Arc<Control>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Dispatcher {
+    pub(crate) fn start(name: String) -> Result<Self, DdsError> {
+        let poll = Poll::new()?;
+        let waker = MioWaker::new(poll.registry(), COMMAND_TOKEN)?;
+        let (tx, rx) = mpsc::channel();
+        let control = Arc::new(Control { tx, waker, next_token: AtomicUsize::new(1) });
+        let thread = std::thread::Builder::new().name(name).spawn(move || run(poll, rx))?;
+        Ok(Self { control, thread: Some(thread) })
+    }
+
+    /// Hands a RustDDS reader to the dispatcher and returns the queue the agent drains.
+    pub(crate) fn add(
+        &self,
+        source: Box<dyn RawSource>,
+        capacity: usize,
+        filter: Option<Filter>,
+    ) -> Result<(SampleQueue, Token), DdsError> {
+        let token = Token(self.control.next_token.fetch_add(1, Ordering::Relaxed));
+        let shared = Arc::new(QueueShared {
+            state: Mutex::new(QueueState { samples: VecDeque::new(), paused: false, waker: None, received: 0 }),
+            cond: Condvar::new(),
+            capacity: capacity.max(1),
+            token,
+            control: Arc::clone(&self.control),
+        });
+        if !self.control.send(Command::Add { token, source, queue: Arc::clone(&shared), filter }) {
+            return Err(DdsError::DispatcherStopped);
+        }
+        Ok((SampleQueue { shared }, token))
+    }
+
+    /// Removes a reader; its RustDDS reader is dropped on the dispatcher thread.
+    pub(crate) fn remove(&self, token: Token) {
+        self.control.send(Command::Remove(token));
+    }
+}
+
+impl Drop for Dispatcher {
+    fn drop(&mut self) {
+        self.control.send(Command::Stop);
+        if let Some(t) = self.thread.take() {
+            if t.join().is_err() {
+                tracing::error!("reader dispatcher thread panicked");
+            }
+        }
+    }
+}
+
+struct Entry {
+    source: Box<dyn RawSource>,
+    queue: Arc<QueueShared>,
+    filter: Option<Filter>,
+}
+
+fn run(mut poll: Poll, rx: mpsc::Receiver<Command>) {
+    let mut events = Events::with_capacity(256);
+    let mut readers: HashMap<Token, Entry> = HashMap::new();
+    let mut batch = Vec::with_capacity(BATCH);
+    loop {
+        if let Err(e) = poll.poll(&mut events, None) {
+            if e.kind() == io::ErrorKind::Interrupted {
+                continue;
+            }
+            tracing::error!("reader dispatcher poll failed, stopping: {e}");
+            return;
+        }
+        let mut ready: Vec<Token> = Vec::new();
+        for ev in events.iter() {
+            if ev.token() == COMMAND_TOKEN {
+                while let Ok(cmd) = rx.try_recv() {
+                    match cmd {
+                        Command::Add { token, mut source, queue, filter } => {
+                            if let Err(e) = source.register(poll.registry(), token) {
+                                tracing::error!("registering reader: {e}");
+                            }
+                            readers.insert(token, Entry { source, queue, filter });
+                            // Data may have arrived between creation and registration.
+                            ready.push(token);
+                        }
+                        Command::Remove(token) => {
+                            if let Some(mut e) = readers.remove(&token) {
+                                e.source.deregister(poll.registry());
+                            }
+                        }
+                        Command::Resume(token) => ready.push(token),
+                        Command::Stop => {
+                            for (_, mut e) in readers.drain() {
+                                e.source.deregister(poll.registry());
+                            }
+                            return;
+                        }
+                    }
+                }
+            } else {
+                ready.push(ev.token());
+            }
+        }
+        for token in ready {
+            if let Some(entry) = readers.get_mut(&token) {
+                drain(entry, &mut batch);
+            }
+        }
+    }
+}
+
+/// Moves everything RustDDS holds for one reader into its queue, as far as the queue has room.
+fn drain(entry: &mut Entry, batch: &mut Vec<ReceivedSample>) {
+    loop {
+        let room = {
+            let mut st = entry.queue.lock();
+            let room = entry.queue.capacity.saturating_sub(st.samples.len());
+            if room == 0 {
+                st.paused = true;
+                return;
+            }
+            room
+        };
+        batch.clear();
+        entry.source.take(room.min(BATCH), batch);
+        if batch.is_empty() {
+            return;
+        }
+        let took = batch.len();
+        let waker = {
+            let mut st = entry.queue.lock();
+            let was_empty = st.samples.is_empty();
+            for s in batch.drain(..) {
+                let s = match entry.filter.as_mut() {
+                    Some(f) => match f(s) {
+                        Some(s) => s,
+                        None => continue,
+                    },
+                    None => s,
+                };
+                st.samples.push_back(s);
+                st.received += 1;
+            }
+            entry.queue.cond.notify_all();
+            if was_empty && !st.samples.is_empty() {
+                st.waker.clone()
+            } else {
+                None
+            }
+        };
+        if let Some(w) = waker {
+            w();
+        }
+        if took < room.min(BATCH) {
+            return;
+        }
+    }
+}

@@ -1,0 +1,161 @@
+//! Request/reply (eProsima's requester and replier entities, spec §8.3) over two DDS topics.
+//!
+//! A requester is a writer on the request topic and a reader on the reply topic; a replier the reverse.
+//! Replies carry the *related sample identity* (the request's writer GUID and sequence number) as inline
+//! QoS, which is how Fast DDS (and ROS 2 services over Fast DDS) correlate them. RustDDS 0.15.1 writes it
+//! under both parameter ids Fast DDS uses (PID 0x800f, Fast DDS ≤ 2.10, and 0x0083, the DDS-RPC value Fast
+//! DDS switched to in 2023) and reads either.
+//!
+//! As eProsima's agent does, a requester keeps only replies whose related writer GUID is its own request
+//! writer, and maps the related sequence number back to the XRCE request id of the WRITE_DATA.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
+use crate::bridge::{lock_pending, Participant, RawReader, RawWriter};
+use crate::error::DdsError;
+use crate::qos::EndpointQos;
+use crate::reader::{SampleIdentity, SampleQueue};
+
+/// Requests awaiting a reply, per requester; beyond this the oldest is forgotten (its late reply is
+/// dropped), so a replier that never answers cannot grow the table without bound.
+pub const MAX_PENDING_REQUESTS: usize = 4_096;
+
+/// What an XRCE requester or replier describes (binary representation, or XML/reference resolved).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct ServiceDescription {
+    /// Service name.
+    pub service_name: String,
+    /// Request type name.
+    pub request_type: String,
+    /// Reply type name.
+    pub reply_type: String,
+    /// Request topic; `None` → `<service_name>_Request`.
+    pub request_topic_name: Option<String>,
+    /// Reply topic; `None` → `<service_name>_Reply`.
+    pub reply_topic_name: Option<String>,
+}
+
+impl ServiceDescription {
+    /// The request topic name. eProsima's C client always sends both names; when absent we use Fast DDS'
+    /// convention (`<service>_Request`, as Fast DDS' own RPC service implementation names it).
+    pub fn request_topic(&self) -> String {
+        self.request_topic_name.clone().unwrap_or_else(|| format!("{}_Request", self.service_name))
+    }
+
+    /// The reply topic name (`<service>_Reply` when absent).
+    pub fn reply_topic(&self) -> String {
+        self.reply_topic_name.clone().unwrap_or_else(|| format!("{}_Reply", self.service_name))
+    }
+}
+
+/// Sequence number of a request → XRCE request id.
+#[derive(Default)]
+pub(crate) struct Pending {
+    map: BTreeMap<i64, u32>,
+}
+
+/// A requester: writes requests, receives the replies to them.
+pub struct Requester {
+    writer: RawWriter,
+    reader: RawReader,
+    pending: Arc<Mutex<Pending>>,
+}
+
+impl std::fmt::Debug for Requester {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Requester").field("writer", &self.writer).field("reader", &self.reader).finish()
+    }
+}
+
+impl Requester {
+    /// Creates the request writer and the reply reader. eProsima forces the reply reader reliable; so do we.
+    pub fn new(participant: &Participant, desc: &ServiceDescription, qos: &EndpointQos) -> Result<Self, DdsError> {
+        let req_topic = participant.topic(&desc.request_topic(), &desc.request_type, false)?;
+        let rep_topic = participant.topic(&desc.reply_topic(), &desc.reply_type, false)?;
+        let writer = participant.create_writer(&req_topic, qos)?;
+        let own = writer.guid();
+        let pending = Arc::new(Mutex::new(Pending::default()));
+        let p = Arc::clone(&pending);
+        let filter = Box::new(move |mut s: crate::ReceivedSample| {
+            let related = s.related_identity?;
+            if related.writer_guid != own {
+                return None; // a reply to another requester on the same topic
+            }
+            let id = lock_pending(&p).map.remove(&related.sequence_number)?;
+            s.request_id = Some(id);
+            Some(s)
+        });
+        let reply_qos = EndpointQos { reliability: crate::Reliability::Reliable, ..qos.clone() };
+        let reader = participant.create_reader_filtered(&rep_topic, &reply_qos, Some(filter))?;
+        Ok(Self { writer, reader, pending })
+    }
+
+    /// Writes a request whose body is `body`, remembering `request_id` (the XRCE WRITE_DATA's) for its
+    /// reply. The pending table is locked across the write so a very fast reply cannot overtake the
+    /// bookkeeping.
+    pub fn write_request(&self, request_id: u32, body: &[u8]) -> Result<SampleIdentity, DdsError> {
+        let mut pending = lock_pending(&self.pending);
+        let id = self.writer.write(body)?;
+        if pending.map.len() >= MAX_PENDING_REQUESTS {
+            pending.map.pop_first();
+        }
+        pending.map.insert(id.sequence_number, request_id);
+        Ok(id)
+    }
+
+    /// Replies to this requester's requests, each with [`ReceivedSample::request_id`](crate::ReceivedSample)
+    /// set.
+    pub fn replies(&self) -> &SampleQueue {
+        self.reader.queue()
+    }
+
+    /// GUID of the request writer (the `writer_guid` repliers relate their replies to).
+    pub fn request_writer_guid(&self) -> [u8; 16] {
+        self.writer.guid()
+    }
+
+    /// Matched repliers (readers of the request topic).
+    pub fn matched_repliers(&self) -> usize {
+        self.writer.matched_readers()
+    }
+}
+
+/// A replier: receives requests with their identity, writes replies related to them.
+pub struct Replier {
+    reader: RawReader,
+    writer: RawWriter,
+}
+
+impl std::fmt::Debug for Replier {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Replier").field("reader", &self.reader).field("writer", &self.writer).finish()
+    }
+}
+
+impl Replier {
+    /// Creates the request reader (forced reliable, as eProsima does) and the reply writer.
+    pub fn new(participant: &Participant, desc: &ServiceDescription, qos: &EndpointQos) -> Result<Self, DdsError> {
+        let req_topic = participant.topic(&desc.request_topic(), &desc.request_type, false)?;
+        let rep_topic = participant.topic(&desc.reply_topic(), &desc.reply_type, false)?;
+        let request_qos = EndpointQos { reliability: crate::Reliability::Reliable, ..qos.clone() };
+        let reader = participant.create_reader(&req_topic, &request_qos)?;
+        let writer = participant.create_writer(&rep_topic, qos)?;
+        Ok(Self { reader, writer })
+    }
+
+    /// Incoming requests; answer each with its [`ReceivedSample::identity`](crate::ReceivedSample).
+    pub fn requests(&self) -> &SampleQueue {
+        self.reader.queue()
+    }
+
+    /// Writes the reply to the request identified by `request`.
+    pub fn write_reply(&self, request: &SampleIdentity, body: &[u8]) -> Result<SampleIdentity, DdsError> {
+        self.writer.write_related(body, Some(*request))
+    }
+
+    /// Matched requesters (readers of the reply topic).
+    pub fn matched_requesters(&self) -> usize {
+        self.writer.matched_readers()
+    }
+}
