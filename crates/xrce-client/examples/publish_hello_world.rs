@@ -52,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "Error at create entities: participant: {} topic: {} publisher: {} datawriter: {}",
             status[0], status[1], status[2], status[3]
         );
-        return Ok(());
+        std::process::exit(1);
     }
 
     let mut count = 0u32;
@@ -70,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let connected = session.run_session_time(1000)?;
         if connected {
-            println!("Sent topic: {}, id: {}", topic.message, topic.index);
+            println!("Send topic: {}, id: {}", topic.message, topic.index);
         }
     }
     session.delete_session()?;

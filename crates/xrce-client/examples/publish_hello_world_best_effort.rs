@@ -1,5 +1,6 @@
-//! PublishHelloWorldBestEffort: as publish_hello_world but on best-effort streams; creates a participant, topic, publisher and datawriter by XML on a best-effort stream and
-//! publishes `HelloWorld` samples. Usage, as eProsima's example: `publish_hello_world <ip> <port> [<max_topics>]`.
+//! PublishHelloWorldBestEffort: creates a participant, topic, publisher and datawriter by XML on a best-effort
+//! stream and publishes `HelloWorld` samples on it.
+//! Usage, as eProsima's example: `publish_hello_world_best_effort <ip> <port> [<max_topics>]`.
 
 use serde::{Deserialize, Serialize};
 use xrce_client::prelude::*;
@@ -26,23 +27,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let mut session = Session::new(transport, 0xAAAA_BBBB);
     session.create_session()?;
-    let reliable_out = session.create_output_best_effort_stream(&mut out_buf)?;
+    let best_effort_out = session.create_output_best_effort_stream(&mut out_buf)?;
     session.create_input_best_effort_stream()?;
 
     let participant_id = object_id(0x01, ObjectKind::Participant);
     let participant_xml = "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
     let participant_req =
-        session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?;
+        session.buffer_create_participant_xml(best_effort_out, participant_id, 0, participant_xml, REPLACE)?;
     let topic_id = object_id(0x01, ObjectKind::Topic);
     let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
-    let topic_req = session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?;
+    let topic_req = session.buffer_create_topic_xml(best_effort_out, topic_id, participant_id, topic_xml, REPLACE)?;
     let publisher_id = object_id(0x01, ObjectKind::Publisher);
-    let publisher_req = session.buffer_create_publisher_xml(reliable_out, publisher_id, participant_id, "", REPLACE)?;
+    let publisher_req =
+        session.buffer_create_publisher_xml(best_effort_out, publisher_id, participant_id, "", REPLACE)?;
     let datawriter_id = object_id(0x01, ObjectKind::DataWriter);
     let datawriter_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
                           <dataType>HelloWorld</dataType></topic></data_writer></dds>";
     let datawriter_req =
-        session.buffer_create_datawriter_xml(reliable_out, datawriter_id, publisher_id, datawriter_xml, REPLACE)?;
+        session.buffer_create_datawriter_xml(best_effort_out, datawriter_id, publisher_id, datawriter_xml, REPLACE)?;
 
     let requests = [participant_req, topic_req, publisher_req, datawriter_req];
     let mut status = [0u8; 4];
@@ -51,25 +53,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "Error at create entities: participant: {} topic: {} publisher: {} datawriter: {}",
             status[0], status[1], status[2], status[3]
         );
-        return Ok(());
+        std::process::exit(1);
     }
 
     let mut count = 0u32;
     while count < max_topics {
         let topic = HelloWorld { index: count, message: "Hello DDS world!" };
         let size = serde_cdr::serialized_size(&topic)?;
-        match session.prepare_output_stream(reliable_out, datawriter_id, size) {
+        match session.prepare_output_stream(best_effort_out, datawriter_id, size) {
             Ok(mut prepared) => {
                 serde_cdr::to_slice(&topic, prepared.buffer())?;
                 count += 1;
             }
-            // History full: the agent has not acknowledged yet; run the session and retry.
+            // Buffer still holding unsent data: run the session and retry.
             Err(Error::WouldBlock) => {}
             Err(e) => return Err(e.into()),
         }
         let connected = session.run_session_time(1000)?;
         if connected {
-            println!("Sent topic: {}, id: {}", topic.message, topic.index);
+            println!("Send topic: {}, id: {}", topic.message, topic.index);
         }
     }
     session.delete_session()?;

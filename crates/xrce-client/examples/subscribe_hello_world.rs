@@ -68,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "Error at create entities: participant: {} topic: {} subscriber: {} datareader: {}",
             status[0], status[1], status[2], status[3]
         );
-        return Ok(());
+        std::process::exit(1);
     }
 
     let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };

@@ -1,5 +1,6 @@
-//! SubscribeHelloWorldBestEffort: best-effort streams; creates a participant, topic, subscriber and datareader by XML, asks for every sample on
-//! best-effort input stream 0x01 and prints them. Usage: `subscribe_hello_world_best_effort <ip> <port> [<max_topics>]`.
+//! SubscribeHelloWorldBestEffort: creates a participant, topic, subscriber and datareader by XML on a
+//! best-effort stream, asks for every sample on best-effort input stream 0x01 and prints them.
+//! Usage, as eProsima's example: `subscribe_hello_world_best_effort <ip> <port> [<max_topics>]`.
 
 use serde::{Deserialize, Serialize};
 use xrce_client::prelude::*;
@@ -41,24 +42,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let mut session = Session::new(transport, 0xCCCC_DDDD).with_callbacks(Printer::default());
     session.create_session()?;
-    let reliable_out = session.create_output_best_effort_stream(&mut out_buf)?;
-    let reliable_in = session.create_input_best_effort_stream()?;
+    let best_effort_out = session.create_output_best_effort_stream(&mut out_buf)?;
+    let best_effort_in = session.create_input_best_effort_stream()?;
 
     let participant_id = object_id(0x01, ObjectKind::Participant);
     let participant_xml = "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
     let participant_req =
-        session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?;
+        session.buffer_create_participant_xml(best_effort_out, participant_id, 0, participant_xml, REPLACE)?;
     let topic_id = object_id(0x01, ObjectKind::Topic);
     let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
-    let topic_req = session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?;
+    let topic_req = session.buffer_create_topic_xml(best_effort_out, topic_id, participant_id, topic_xml, REPLACE)?;
     let subscriber_id = object_id(0x01, ObjectKind::Subscriber);
     let subscriber_req =
-        session.buffer_create_subscriber_xml(reliable_out, subscriber_id, participant_id, "", REPLACE)?;
+        session.buffer_create_subscriber_xml(best_effort_out, subscriber_id, participant_id, "", REPLACE)?;
     let datareader_id = object_id(0x01, ObjectKind::DataReader);
     let datareader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
                           <dataType>HelloWorld</dataType></topic></data_reader></dds>";
     let datareader_req =
-        session.buffer_create_datareader_xml(reliable_out, datareader_id, subscriber_id, datareader_xml, REPLACE)?;
+        session.buffer_create_datareader_xml(best_effort_out, datareader_id, subscriber_id, datareader_xml, REPLACE)?;
 
     let requests = [participant_req, topic_req, subscriber_req, datareader_req];
     let mut status = [0u8; 4];
@@ -67,11 +68,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "Error at create entities: participant: {} topic: {} subscriber: {} datareader: {}",
             status[0], status[1], status[2], status[3]
         );
-        return Ok(());
+        std::process::exit(1);
     }
 
     let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
-    session.buffer_request_data(reliable_out, datareader_id, reliable_in, Some(&control))?;
+    session.buffer_request_data(best_effort_out, datareader_id, best_effort_in, Some(&control))?;
 
     while session.callbacks().count < max_topics {
         session.run_session_until_data(1000)?;

@@ -179,6 +179,8 @@ pub mod prelude {
     #[cfg(feature = "std")]
     pub use crate::transport::{discovery, IpProtocol, TcpTransport, UdpTransport};
     pub use crate::transport::{CustomIo, CustomTransport, Transport};
+    #[cfg(feature = "std")]
+    pub use crate::StdClock;
     pub use crate::{
         object_id, stream_id, stream_id_from_raw, Callbacks, DeliveryControl, Durability, Error, History, ObjectId,
         ObjectKind, Outputs, QoS, Reliability, SampleIdentity, ServiceNames, Session, SessionCore, StreamDirection,

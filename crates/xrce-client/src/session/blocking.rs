@@ -89,7 +89,14 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             let wait_ms = wait.map_or(-1, |ns| i32::try_from((ns + MILLIS - 1) / MILLIS).unwrap_or(i32::MAX));
             if let Some(n) = self.transport.recv(&mut self.rx, wait_ms)? {
                 let now = self.clock.now_nanos();
+                let written = core.last_request_id();
                 core.handle_input(self.rx.get(..n).unwrap_or(&[]), now, h);
+                if core.last_request_id() != written {
+                    // A callback wrote (a replier's reply, say): send it now rather than at the next run, so
+                    // `run_session_time` and friends do not end with it unsent (the C client waits for the next
+                    // `uxr_run_session_*` call, a full timeout later).
+                    core.flash_output_streams();
+                }
                 self.send_pending(core)?;
                 return Ok(true);
             }

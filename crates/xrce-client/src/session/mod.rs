@@ -364,6 +364,11 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         self.st.out_rel.iter_mut().flatten().for_each(OutputReliable::flush);
     }
 
+    /// The last request id handed out; it changes with every write into the output streams.
+    pub(crate) const fn last_request_id(&self) -> u16 {
+        self.st.last_request_id
+    }
+
     /// Whether every reliable output stream had all its messages acknowledged.
     pub fn output_streams_confirmed(&self) -> bool {
         self.st.out_rel.iter().flatten().all(OutputReliable::confirmed)

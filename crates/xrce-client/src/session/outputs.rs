@@ -18,6 +18,8 @@ use xrce_proto::{ObjectId, ObjectVariant, Representation, SampleIdentity, Stream
 
 /// First request id the C client hands out (1–9 are reserved).
 pub(crate) const FIRST_REQUEST_ID: u16 = 10;
+/// Bytes of a submessage header.
+const SUBHEADER_LEN: usize = 4;
 
 /// The output side of a session, lent to callbacks so they can answer (e.g. a replier writing its reply from
 /// `on_request`), and used by [`crate::WriteAccess`].
@@ -112,6 +114,12 @@ impl<'s, 'a> Outputs<'s, 'a> {
         }
     }
 
+    /// Reserves `total` zero-filled bytes for one submessage in one message of `stream` (no fragmentation:
+    /// [`Error::TooLarge`] when it cannot fit one message).
+    fn reserve(&mut self, stream: StreamId, total: usize) -> Result<&mut [u8]> {
+        reserve_in(self.best_effort, self.reliable, stream, total)
+    }
+
     fn create(
         &mut self,
         stream: StreamId,
@@ -163,20 +171,25 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 out.write_parts(stream, &[&head, &prefix, s.as_bytes(), suffix])
             }
             Repr::Binary(blob) => {
-                // Binary blobs are small (names and QoS flags): encoded on the stack at payload offset 4 so CDR
-                // alignment matches the real position in the message.
-                let mut scratch = [0u8; 320];
+                // Encoded in place, in two passes: a writer over no buffer measures the CREATE payload (CDR
+                // alignment counted from the payload start, the variant after the 4-byte request), then the
+                // same encoding goes straight into the reserved room of the stream. No scratch buffer.
                 let variant =
                     ObjectVariant::Entity(EntityVariant { kind, representation: Representation::Binary(blob), link });
-                let mut w = Writer::with_origin(&mut scratch, 4, 0, Endianness::Little);
+                let mut measure = Writer::with_origin(&mut [], 4, 0, Endianness::Little);
+                measure.write(&variant);
+                let payload = match measure.finish() {
+                    Ok(n) | Err(xrce_proto::cdr::Error::BufferTooSmall { needed: n }) => n,
+                    Err(e) => return Err(Error::Encode(e)),
+                };
+                let head = subheader(id::CREATE, mode_flags(mode), payload)?;
+                let b = base(request, object);
+                let region = out.reserve(stream, SUBHEADER_LEN + payload)?;
+                let Some((prefix, _)) = region.split_first_chunk_mut::<8>() else { return Err(Error::TooLarge) };
+                *prefix = [head[0], head[1], head[2], head[3], b[0], b[1], b[2], b[3]];
+                let mut w = Writer::with_origin(region, 8, SUBHEADER_LEN, Endianness::Little);
                 w.write(&variant);
-                let end = w.finish().map_err(|e| match e {
-                    xrce_proto::cdr::Error::BufferTooSmall { .. } => Error::TooLarge,
-                    other => Error::Encode(other),
-                })?;
-                let body = scratch.get(4..end).ok_or(Error::TooLarge)?;
-                let head = subheader(id::CREATE, mode_flags(mode), 4 + body.len())?;
-                out.write_parts(stream, &[&head, &base(request, object), body])
+                w.finish().map(drop).map_err(Error::Encode)
             }
         })
     }

@@ -440,12 +440,16 @@ impl<'a> OutputReliable<'a> {
         self.heartbeat_deadline = unacked.then_some(now + HEARTBEAT_PERIOD_NS);
     }
 
-    /// Whether everything written was sent and acknowledged.
+    /// Whether everything that can be sent was sent and acknowledged. During a continuous fragmented write the
+    /// slot being filled cannot leave before more bytes come, so it does not count: the flush callback of
+    /// `prepare_output_stream_fragmented` waits for exactly this.
     pub fn confirmed(&self) -> bool {
+        let next = self.last_sent.wrapping_add(1);
         self.last_acknown == self.last_sent
-            && self.last_sent.wrapping_add(1) == self.last_written
-            && self.len_of(self.last_written) == 0
-            && self.chain.is_none()
+            && match self.chain {
+                Some(c) => next == c.seq,
+                None => next == self.last_written && self.len_of(self.last_written) == 0,
+            }
     }
 
     /// Whether a message waits to be (re)sent now.

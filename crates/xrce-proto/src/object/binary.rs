@@ -52,7 +52,10 @@ impl<'a> BinaryObject<'a> {
     }
 
     /// Writes the blob as `sequence<octet>`: its length, then the content with its own alignment origin.
-    pub(crate) fn encode_with_length(&self, w: &mut Writer<'_>) {
+    ///
+    /// Public so a client can encode a blob straight into its output buffer: a [`Writer`] over an empty buffer
+    /// measures the size first (its position, or [`Error::BufferTooSmall`]'s `needed`).
+    pub fn encode_with_length(&self, w: &mut Writer<'_>) {
         if let Self::Raw(bytes) = self {
             w.write_octet_seq(bytes);
             return;

@@ -1,0 +1,14 @@
+//! RAM of the hello-world publisher profile (docs/client-footprint.md): guards against the session object
+//! growing unnoticed.
+
+use std::mem::size_of;
+use xrce_client::prelude::*;
+
+#[test]
+fn session_sizes_of_the_publisher_profile() {
+    let core = size_of::<SessionCore<'static, 0, 1, 0, 1>>();
+    let blocking = size_of::<Session<'static, UdpTransport, StdClock, (), 0, 1, 0, 1, 512>>();
+    println!("SessionCore<0, 1, 0, 1>: {core} B, Session<UdpTransport, StdClock, 0, 1, 0, 1, 512>: {blocking} B");
+    assert!(core <= 256, "{core}");
+    assert!(blocking <= core + 2 * 512 + 64, "{blocking}");
+}
