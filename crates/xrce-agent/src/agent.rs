@@ -135,13 +135,27 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
     }
 
     /// Creates a participant from XML in `domain_id` (255: the agent's domain).
-    pub fn create_participant_by_xml(&self, client_key: u32, id: u16, domain_id: i16, xml: &str, flags: u8) -> Result<StatusCode, OpError> {
+    pub fn create_participant_by_xml(
+        &self,
+        client_key: u32,
+        id: u16,
+        domain_id: i16,
+        xml: &str,
+        flags: u8,
+    ) -> Result<StatusCode, OpError> {
         let variant = EntityVariant::participant(Representation::Xml(xml), domain_id);
         self.create(client_key, ObjectId::new(id, ObjectKind::Participant), &variant, flags)
     }
 
     /// Creates a participant from a profile of the loaded refs.
-    pub fn create_participant_by_ref(&self, client_key: u32, id: u16, domain_id: i16, reference: &str, flags: u8) -> Result<StatusCode, OpError> {
+    pub fn create_participant_by_ref(
+        &self,
+        client_key: u32,
+        id: u16,
+        domain_id: i16,
+        reference: &str,
+        flags: u8,
+    ) -> Result<StatusCode, OpError> {
         let variant = EntityVariant::participant(Representation::Reference(reference), domain_id);
         self.create(client_key, ObjectId::new(id, ObjectKind::Participant), &variant, flags)
     }
@@ -161,14 +175,33 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         (Replier, create_replier_by_xml, create_replier_by_ref, delete_replier),
     );
 
-    fn create_child(&self, kind: ObjectKind, client_key: u32, id: u16, parent_id: u16, repr: Representation<'_>, flags: u8) -> Result<StatusCode, OpError> {
+    fn create_child(
+        &self,
+        kind: ObjectKind,
+        client_key: u32,
+        id: u16,
+        parent_id: u16,
+        repr: Representation<'_>,
+        flags: u8,
+    ) -> Result<StatusCode, OpError> {
         let parent_kind = kind.parent().unwrap_or(ObjectKind::Participant);
         let variant = EntityVariant::child(kind, repr, ObjectId::new(parent_id, parent_kind));
         self.create(client_key, ObjectId::new(id, kind), &variant, flags)
     }
 
-    fn create(&self, client_key: u32, id: ObjectId, variant: &EntityVariant<'_>, flags: u8) -> Result<StatusCode, OpError> {
-        status(lock(&self.core).create_entity(ClientKey::from_u32(client_key), id, variant, CreationMode::from_flags(flags)))
+    fn create(
+        &self,
+        client_key: u32,
+        id: ObjectId,
+        variant: &EntityVariant<'_>,
+        flags: u8,
+    ) -> Result<StatusCode, OpError> {
+        status(lock(&self.core).create_entity(
+            ClientKey::from_u32(client_key),
+            id,
+            variant,
+            CreationMode::from_flags(flags),
+        ))
     }
 
     fn delete_entity(&self, kind: ObjectKind, client_key: u32, id: u16) -> Result<StatusCode, OpError> {
@@ -192,7 +225,11 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
     }
 
     /// Adds a callback fired after each successful create/delete of the matching kind.
-    pub fn add_middleware_callback(&self, kind: CallbackKind, callback: impl Fn(CallbackKind, crate::middleware::EntityRef) + Send + Sync + 'static) {
+    pub fn add_middleware_callback(
+        &self,
+        kind: CallbackKind,
+        callback: impl Fn(CallbackKind, crate::middleware::EntityRef) + Send + Sync + 'static,
+    ) {
         let cb: Callback = Arc::new(callback);
         self.callbacks.write().unwrap_or_else(std::sync::PoisonError::into_inner).push((kind, cb));
     }

@@ -46,11 +46,22 @@ fn assert_agent_still_serves(h: &mut Harness) {
 }
 
 #[test]
+fn every_crash_packet_inside_an_established_session_is_harmless() {
+    let mut h = Harness::new();
+    h.send(8, &create_client_msg(0x0808_0808, 0x81));
+    for packet in [create_client_mtu_zero(), heartbeat_without_session(), create_client_bad_bool()] {
+        h.send(8, &packet);
+    }
+    assert_agent_still_serves(&mut h);
+}
+
+#[test]
 fn create_client_with_mtu_zero_is_answered_and_harmless() {
     let mut h = Harness::new();
     h.send(1, &create_client_mtu_zero());
     let outs = h.outs(1);
-    assert!(matches!(outs.first(), Some(Out::StatusAgent { .. })), "answered: {outs:?}");
+    assert_eq!(outs.first(), Some(&Out::StatusAgent { status: 0x85 }), "refused with INVALID_DATA: {outs:?}");
+    assert!(!h.core.has_client(xrce_proto::ClientKey::from_u32(0xAABBCCDD)));
     assert_agent_still_serves(&mut h);
 }
 

@@ -160,12 +160,24 @@ fn delete_removes_children_and_reuse_matches() {
     let key = xrce_proto::ClientKey::from_u32(p.key);
     assert!(h.core.has_object(key, writer));
     // REUSE of the same participant → OK_MATCHED.
-    let mut m = p.create(participant, xrce_proto::EntityVariant::participant(xrce_proto::Representation::Binary(xrce_proto::object::BinaryObject::Raw(&[0, 0])), 0));
+    let mut m = p.create(
+        participant,
+        xrce_proto::EntityVariant::participant(
+            xrce_proto::Representation::Binary(xrce_proto::object::BinaryObject::Raw(&[0, 0])),
+            0,
+        ),
+    );
     m[5] = 0x03; // flags E|REUSE
     h.send(PUB, &m);
     assert_eq!(h.statuses(PUB).last().unwrap().1, 0x01);
     // Without REUSE/REPLACE → ALREADY_EXISTS.
-    let mut m = p.create(participant, xrce_proto::EntityVariant::participant(xrce_proto::Representation::Binary(xrce_proto::object::BinaryObject::Raw(&[0, 0])), 0));
+    let mut m = p.create(
+        participant,
+        xrce_proto::EntityVariant::participant(
+            xrce_proto::Representation::Binary(xrce_proto::object::BinaryObject::Raw(&[0, 0])),
+            0,
+        ),
+    );
     m[5] = 0x01;
     h.send(PUB, &m);
     assert_eq!(h.statuses(PUB).last().unwrap().1, 0x82);
@@ -199,7 +211,8 @@ fn lost_messages_are_retransmitted_and_heartbeats_sent() {
     assert!(h.outs(SUB).iter().any(|o| matches!(o, Out::Heartbeat { stream: 0x80, .. })));
     // A NACK of the first DATA: it is sent again (the harness ignores the duplicate).
     let first_data_seq = 6u16; // 6 STATUS before the DATA on 0x80
-    let ack = xrce_proto::submessage::AckNack { first_unacked_seq_num: first_data_seq, nack_bitmap: [0, 1], stream_id: 0x80 };
+    let ack =
+        xrce_proto::submessage::AckNack { first_unacked_seq_num: first_data_seq, nack_bitmap: [0, 1], stream_id: 0x80 };
     let raw = s.encode(false, &xrce_proto::Submessage::AckNack(ack));
     // ACKNACK travels on stream 0: patch the header's stream.
     let mut raw = raw;
@@ -207,7 +220,7 @@ fn lost_messages_are_retransmitted_and_heartbeats_sent() {
     raw[2] = 0;
     let before = h.core.stats().messages_out;
     h.send(SUB, &raw);
-    assert!(h.core.stats().messages_out > before + 1);
+    assert_eq!(h.core.stats().messages_out, before + 1, "exactly the NACKed message is resent");
     // Acknowledging everything lets the rest flow.
     h.auto_ack = true;
     h.advance(Duration::from_millis(300));

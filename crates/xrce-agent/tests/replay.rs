@@ -33,13 +33,6 @@ fn assert_all_ok(h: &Harness, port: u16) {
     assert!(h.outs(port).iter().any(|o| matches!(o, Out::StatusAgent { status: 0 })), "no STATUS_AGENT OK");
 }
 
-fn hello_payload(index: u32) -> Vec<u8> {
-    let mut v = index.to_le_bytes().to_vec();
-    v.extend_from_slice(&17u32.to_le_bytes());
-    v.extend_from_slice(b"Hello DDS world!\0");
-    v
-}
-
 #[test]
 fn reliable_pubsub_capture_delivers_hello_world() {
     let packets = load_capture("hello_world_pubsub_udp.all.txt");
@@ -269,7 +262,8 @@ fn spec_vectors_create_client_and_status_agent() {
     );
     // Participant by XML on reliable stream 0x80 (spec §17.4): STATUS on 0x80 seq 0, ACKNACK first_unacked 1.
     let xml = b"<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
-    let mut msg = vec![0x81, 0x80, 0x00, 0x00, 0x01, 0x05, 0x68, 0x00, 0x00, 0x0A, 0x00, 0x11, 0x01, 0x02, 0, 0, 0x59, 0, 0, 0];
+    let mut msg =
+        vec![0x81, 0x80, 0x00, 0x00, 0x01, 0x05, 0x68, 0x00, 0x00, 0x0A, 0x00, 0x11, 0x01, 0x02, 0, 0, 0x59, 0, 0, 0];
     msg.extend_from_slice(xml);
     msg.extend_from_slice(&[0x00, 0x00, 0x00, 0x00]);
     assert_eq!(msg.len(), 112);

@@ -252,15 +252,8 @@ where
 
     fn wall_time(&self, now: Instant) -> xrce_proto::Time {
         let (at, since_epoch) = self.wall_anchor.unwrap_or((now, Duration::ZERO));
-        let t = if now >= at {
-            since_epoch.saturating_add(now - at)
-        } else {
-            since_epoch.saturating_sub(at - now)
-        };
-        xrce_proto::Time {
-            seconds: i32::try_from(t.as_secs()).unwrap_or(i32::MAX),
-            nanoseconds: t.subsec_nanos(),
-        }
+        let t = if now >= at { since_epoch.saturating_add(now - at) } else { since_epoch.saturating_sub(at - now) };
+        xrce_proto::Time { seconds: i32::try_from(t.as_secs()).unwrap_or(i32::MAX), nanoseconds: t.subsec_nanos() }
     }
 
     fn arm_heartbeat(&mut self, now: Instant) {
@@ -334,7 +327,10 @@ where
         }
         for key in probe {
             let probe = xrce_proto::submessage::GetInfo {
-                request: xrce_proto::BaseObjectRequest { request_id: xrce_proto::RequestId(0), object_id: ObjectId::CLIENT },
+                request: xrce_proto::BaseObjectRequest {
+                    request_id: xrce_proto::RequestId(0),
+                    object_id: ObjectId::CLIENT,
+                },
                 info_mask: 0,
             };
             self.send_control(key, &xrce_proto::Submessage::GetInfo(probe));
@@ -381,7 +377,12 @@ fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> O
 
 /// Encodes one submessage (header included) as it would sit after a message header of `header_len` bytes.
 fn encode_submessage(header_len: usize, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
-    let header = MessageHeader::new(if header_len == 8 { 0x01 } else { 0x81 }, xrce_proto::StreamId::NONE, 0, ClientKey::INVALID);
+    let header = MessageHeader::new(
+        if header_len == 8 { 0x01 } else { 0x81 },
+        xrce_proto::StreamId::NONE,
+        0,
+        ClientKey::INVALID,
+    );
     let mut msg = encode_message(&header, sub)?;
     Some(msg.split_off(header_len))
 }

@@ -6,11 +6,10 @@ use std::time::Instant;
 use xrce_proto::message::parse;
 use xrce_proto::object::{AgentRepresentation, ClientRepresentation};
 use xrce_proto::submessage::{
-    ActivityInfo, Create, CreationMode, DataFormat, DataPayload, GetInfo, Info, ReadData, StatusAgent,
-    TimestampReply,
+    ActivityInfo, Create, CreationMode, DataFormat, DataPayload, GetInfo, Info, ReadData, StatusAgent, TimestampReply,
 };
 use xrce_proto::{
-    BaseObjectReply, BaseObjectRequest, ClientKey, EntityVariant, Endianness, MessageHeader, ObjectId, ObjectKind,
+    BaseObjectReply, BaseObjectRequest, ClientKey, Endianness, EntityVariant, MessageHeader, ObjectId, ObjectKind,
     ObjectVariant, RawSubmessage, ResultStatus, StatusCode, StreamId, StreamKind, Submessage, XRCE_COOKIE,
 };
 
@@ -304,12 +303,8 @@ where
     /// Makes room in a full client table by removing the client silent the longest, if it is dead.
     fn evict_dead_client(&mut self, now: Instant) -> bool {
         let dead_time = self.config.client_dead_time;
-        let victim = self
-            .clients
-            .values()
-            .filter(|c| c.is_dead(now, dead_time))
-            .min_by_key(|c| c.last_heard)
-            .map(|c| c.key);
+        let victim =
+            self.clients.values().filter(|c| c.is_dead(now, dead_time)).min_by_key(|c| c.last_heard).map(|c| c.key);
         victim.is_some_and(|k| self.remove_client(k))
     }
 
@@ -409,7 +404,9 @@ where
             Submessage::Heartbeat(hb) => {
                 let sid = StreamId(hb.stream_id);
                 if sid.is_reliable() {
-                    if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&hb.stream_id)) {
+                    if let Some(input) =
+                        self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&hb.stream_id))
+                    {
                         input.on_heartbeat(&hb);
                     }
                     self.drain_reliable(key, sid, now);
@@ -432,7 +429,11 @@ where
             }
             Submessage::Timestamp(t) => {
                 let received = self.wall_time(now);
-                let reply = TimestampReply { transmit_timestamp: received, receive_timestamp: received, originate_timestamp: t };
+                let reply = TimestampReply {
+                    transmit_timestamp: received,
+                    receive_timestamp: received,
+                    originate_timestamp: t,
+                };
                 self.send_control(key, &Submessage::TimestampReply(reply));
                 Flow::Continue
             }
@@ -659,10 +660,10 @@ where
     /// Delivers samples for every active read task while streams have room.
     pub(super) fn pump_reads(&mut self, now: Instant) {
         self.pump_needed = false;
-        let keys: Vec<ClientKey> =
-            self.clients.iter().filter(|(_, c)| !c.reads.is_empty()).map(|(k, _)| *k).collect();
+        let keys: Vec<ClientKey> = self.clients.iter().filter(|(_, c)| !c.reads.is_empty()).map(|(k, _)| *k).collect();
         for key in keys {
-            let readers: Vec<ObjectId> = self.clients.get(&key).map(|c| c.reads.keys().copied().collect()).unwrap_or_default();
+            let readers: Vec<ObjectId> =
+                self.clients.get(&key).map(|c| c.reads.keys().copied().collect()).unwrap_or_default();
             for reader in readers {
                 self.pump_reader(key, reader, now);
             }
@@ -679,6 +680,7 @@ where
                 self.middleware.stop_reading(entity);
                 return;
             }
+            task.expire_timers(now);
             let stream = task.stream;
             if stream.is_reliable() && client.streams.rel_out.get(&stream.0).is_some_and(|s| !s.is_idle()) {
                 return;
@@ -697,14 +699,23 @@ where
     }
 
     /// Sends a sample as one DATA submessage on `stream` (spec §6.8).
-    fn send_data(&mut self, key: ClientKey, stream: StreamId, request: BaseObjectRequest, sample: &Sample, now: Instant) {
+    fn send_data(
+        &mut self,
+        key: ClientKey,
+        stream: StreamId,
+        request: BaseObjectRequest,
+        sample: &Sample,
+        now: Instant,
+    ) {
         let payload_len = 4 + sample.wire_size();
         let Ok(length) = u16::try_from(payload_len) else {
             tracing::warn!(client = %key, size = payload_len, "sample too large for one DATA submessage, dropped");
             return;
         };
         let mut sub = Vec::with_capacity(4 + payload_len);
-        sub.extend_from_slice(&xrce_proto::SubmessageHeader { id: xrce_proto::submessage::id::DATA, flags: 0x01, length }.to_bytes());
+        sub.extend_from_slice(
+            &xrce_proto::SubmessageHeader { id: xrce_proto::submessage::id::DATA, flags: 0x01, length }.to_bytes(),
+        );
         sub.extend_from_slice(&request.request_id.0.to_be_bytes());
         sub.extend_from_slice(&request.object_id.0);
         match sample {
@@ -775,7 +786,8 @@ where
             }
             StreamKind::Reliable => {
                 let bodies = if fits { vec![sub] } else { fragment(&sub, client.mtu, header_len) };
-                let out = client.streams.rel_out.entry(stream.0).or_insert_with(|| ReliableOut::new(window, max_pending));
+                let out =
+                    client.streams.rel_out.entry(stream.0).or_insert_with(|| ReliableOut::new(window, max_pending));
                 if !out.queue(bodies) {
                     tracing::warn!(client = %key, stream = stream.0, "reliable output queue full: message dropped");
                     self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
@@ -810,4 +822,3 @@ fn info_reply(get: &GetInfo, implementation_status: u8) -> Info<'static> {
         activity: Some(ActivityInfo::Agent { availability: 1, address_seq: xrce_proto::cdr::Seq::EMPTY }),
     }
 }
-

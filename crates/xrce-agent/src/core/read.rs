@@ -90,6 +90,18 @@ impl ReadTask {
         self.not_before = self.pace.map(|p| now + p);
     }
 
+    /// Forgets timers that have expired, so [`Self::wake_at`] never reports an instant in the past.
+    pub fn expire_timers(&mut self, now: Instant) {
+        if self.not_before.is_some_and(|t| t <= now) {
+            self.not_before = None;
+        }
+        if let Some(b) = &mut self.bucket {
+            if b.wake_at.is_some_and(|t| t <= now) {
+                b.wake_at = None;
+            }
+        }
+    }
+
     /// When this task next wants to run, if it waits for time rather than data.
     pub fn wake_at(&self) -> Option<Instant> {
         let bucket = self.bucket.as_ref().and_then(|b| b.wake_at);
@@ -148,7 +160,12 @@ mod tests {
     use xrce_proto::{ObjectId, RequestId};
 
     fn spec(c: Option<DataDeliveryControl>) -> ReadSpecification<'static> {
-        ReadSpecification { preferred_stream_id: 0x80, data_format: 0, content_filter_expression: None, delivery_control: c }
+        ReadSpecification {
+            preferred_stream_id: 0x80,
+            data_format: 0,
+            content_filter_expression: None,
+            delivery_control: c,
+        }
     }
 
     #[test]
@@ -168,7 +185,12 @@ mod tests {
     fn bucket_limits_rate_and_pace_spaces_samples() {
         let now = Instant::now();
         let req = BaseObjectRequest::default();
-        let c = DataDeliveryControl { max_samples: 0xFFFF, max_bytes_per_second: 100, min_pace_period: 10, ..Default::default() };
+        let c = DataDeliveryControl {
+            max_samples: 0xFFFF,
+            max_bytes_per_second: 100,
+            min_pace_period: 10,
+            ..Default::default()
+        };
         let (_, mut t) = ReadTask::from_spec(req, &spec(Some(c)), now);
         assert!(t.ready(60, now).is_ok());
         t.sent(60, now);

@@ -153,7 +153,13 @@ impl ReliableIn {
 
     /// Appends a FRAGMENT payload; returns the rebuilt message (header + payloads) when `last`, or an error
     /// when it would exceed `max` bytes (the partial message is dropped).
-    pub fn push_fragment(&mut self, header: &[u8], data: &[u8], last: bool, max: usize) -> Result<Option<Vec<u8>>, usize> {
+    pub fn push_fragment(
+        &mut self,
+        header: &[u8],
+        data: &[u8],
+        last: bool,
+        max: usize,
+    ) -> Result<Option<Vec<u8>>, usize> {
         let (head, body) = self.reassembly.get_or_insert_with(|| (header.to_vec(), Vec::new()));
         if head.len() + body.len() + data.len() > max {
             let size = head.len() + body.len() + data.len();

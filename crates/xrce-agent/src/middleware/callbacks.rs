@@ -122,7 +122,12 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn write_request(&mut self, requester: EntityRef, id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
         self.inner.write_request(requester, id, data)
     }
-    fn write_reply(&mut self, replier: EntityRef, identity: &SampleIdentity, data: &[u8]) -> Result<(), MiddlewareError> {
+    fn write_reply(
+        &mut self,
+        replier: EntityRef,
+        identity: &SampleIdentity,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError> {
         self.inner.write_reply(replier, identity, data)
     }
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {

@@ -26,6 +26,8 @@ pub const MAX_PENDING_REPLIES: usize = 64;
 pub const MAX_TOPICS: usize = 4096;
 
 type TopicKey = (i16, String);
+/// A request waiting for repliers: its identity and bytes.
+type PendingRequest = (SampleIdentity, Arc<[u8]>);
 
 #[derive(Debug, Default)]
 struct Ring<T> {
@@ -68,7 +70,7 @@ pub struct Ced {
     default_domain: i16,
     ring_size: usize,
     topics: HashMap<TopicKey, Ring<Arc<[u8]>>>,
-    services: HashMap<TopicKey, Ring<(SampleIdentity, Arc<[u8]>)>>,
+    services: HashMap<TopicKey, Ring<PendingRequest>>,
     entities: HashMap<EntityRef, Entity>,
 }
 
@@ -196,8 +198,8 @@ impl Ced {
     }
 
     fn build(&self, creation: &Creation<'_>) -> Result<Entity, MiddlewareError> {
-        let description = describe(&*self.profiles, creation.variant, creation.endian, self.default_domain)
-            .map_err(invalid)?;
+        let description =
+            describe(&*self.profiles, creation.variant, creation.endian, self.default_domain).map_err(invalid)?;
         let entity = creation.entity;
         let parent = creation.parent;
         let need_parent = || parent.ok_or_else(|| invalid("missing parent"));
@@ -278,10 +280,8 @@ impl Middleware for Ced {
     }
 
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
-        let old = self
-            .entities
-            .remove(&entity)
-            .ok_or_else(|| MiddlewareError::UnknownReference(format!("{entity:?}")))?;
+        let old =
+            self.entities.remove(&entity).ok_or_else(|| MiddlewareError::UnknownReference(format!("{entity:?}")))?;
         self.release(old);
         Ok(())
     }
@@ -307,7 +307,12 @@ impl Middleware for Ced {
         Ok(())
     }
 
-    fn write_request(&mut self, requester: EntityRef, request_id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
+    fn write_request(
+        &mut self,
+        requester: EntityRef,
+        request_id: RequestId,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError> {
         let Entity::Requester { key, sent, .. } = self.entity_mut(requester)? else {
             return Err(MiddlewareError::Unsupported(format!("{requester:?} is not a requester")));
         };
@@ -321,7 +326,12 @@ impl Middleware for Ced {
         Ok(())
     }
 
-    fn write_reply(&mut self, replier: EntityRef, identity: &SampleIdentity, data: &[u8]) -> Result<(), MiddlewareError> {
+    fn write_reply(
+        &mut self,
+        replier: EntityRef,
+        identity: &SampleIdentity,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError> {
         let Entity::Replier { key: service, .. } = self.entity_mut(replier)? else {
             return Err(MiddlewareError::Unsupported(format!("{replier:?} is not a replier")));
         };

@@ -4,7 +4,7 @@
 //! eProsima CED's reference semantics and a tolerant scan of the XML.
 
 use xrce_proto::object::{BinaryObject, Representation};
-use xrce_proto::{EntityVariant, Endianness, ObjectId, ObjectKind};
+use xrce_proto::{Endianness, EntityVariant, ObjectId, ObjectKind};
 
 /// How a datawriter/datareader names its topic.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -105,7 +105,8 @@ fn attribute<'x>(xml: &'x str, name: &str) -> Option<&'x str> {
         let at = from + found;
         from = at + name.len();
         // Must be a whole attribute name: preceded by whitespace or a quote, followed by `=`.
-        let before_ok = at == 0 || matches!(xml.as_bytes().get(at - 1), Some(b' ' | b'\t' | b'\n' | b'\r' | b'"' | b'\''));
+        let before_ok =
+            at == 0 || matches!(xml.as_bytes().get(at - 1), Some(b' ' | b'\t' | b'\n' | b'\r' | b'"' | b'\''));
         let rest = xml.get(from..)?.trim_start();
         if !before_ok || !rest.starts_with('=') {
             continue;

@@ -16,7 +16,7 @@ pub mod profiles;
 use std::fmt;
 use std::sync::Arc;
 
-use xrce_proto::{ClientKey, EntityVariant, Endianness, ObjectId, ObjectKind, RequestId, SampleIdentity};
+use xrce_proto::{ClientKey, Endianness, EntityVariant, ObjectId, ObjectKind, RequestId, SampleIdentity};
 
 pub use describe::{Description, ProfileSource, TopicRef};
 
@@ -192,7 +192,12 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     fn write_request(&mut self, requester: EntityRef, id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
         (**self).write_request(requester, id, data)
     }
-    fn write_reply(&mut self, replier: EntityRef, identity: &SampleIdentity, data: &[u8]) -> Result<(), MiddlewareError> {
+    fn write_reply(
+        &mut self,
+        replier: EntityRef,
+        identity: &SampleIdentity,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError> {
         (**self).write_reply(replier, identity, data)
     }
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
@@ -239,10 +244,7 @@ impl MiddlewareKind {
     }
 
     /// Builds the middleware, or says why not.
-    pub fn build(
-        self,
-        profiles: Arc<dyn ProfileSource>,
-    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+    pub fn build(self, profiles: Arc<dyn ProfileSource>) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
             Self::Dds | Self::Rtps => Err(UnsupportedMiddleware(self.name())),

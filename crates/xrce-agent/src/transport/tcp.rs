@@ -132,7 +132,12 @@ impl TcpServer {
         Ok(())
     }
 
-    fn start_connection(&self, stream: TcpStream, peer: SocketAddr, stop: &Arc<AtomicBool>) -> io::Result<thread::JoinHandle<()>> {
+    fn start_connection(
+        &self,
+        stream: TcpStream,
+        peer: SocketAddr,
+        stop: &Arc<AtomicBool>,
+    ) -> io::Result<thread::JoinHandle<()>> {
         stream.set_nonblocking(false)?;
         stream.set_nodelay(true)?;
         stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
@@ -147,14 +152,28 @@ impl TcpServer {
     }
 }
 
-fn read_loop(mut stream: TcpStream, peer: SocketAddr, id: ConnId, core: &SharedCore<ConnId>, writers: &Writers, stop: &AtomicBool) {
+fn read_loop(
+    mut stream: TcpStream,
+    peer: SocketAddr,
+    id: ConnId,
+    core: &SharedCore<ConnId>,
+    writers: &Writers,
+    stop: &AtomicBool,
+) {
     let mut decoder = TcpDecoder::new(vec![0u8; MAX_MESSAGE_LEN]);
     let mut buf = vec![0u8; 64 * 1024];
     while !stop.load(Ordering::Relaxed) {
         let n = match stream.read(&mut buf) {
             Ok(0) => break,
             Ok(n) => n,
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => continue,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                ) =>
+            {
+                continue
+            }
             Err(e) => {
                 tracing::debug!(%peer, "TCP read failed: {e}");
                 break;

@@ -40,11 +40,7 @@ pub fn load_capture(name: &str) -> Vec<Packet> {
         if is_header {
             let dir = fields[2];
             let to_agent = dir.starts_with('C');
-            let port: u16 = dir
-                .split(|c| c == '(' || c == ')')
-                .nth(1)
-                .and_then(|p| p.parse().ok())
-                .unwrap_or(0);
+            let port: u16 = dir.split(['(', ')']).nth(1).and_then(|p| p.parse().ok()).unwrap_or(0);
             out.push(Packet { t: fields[1].parse().unwrap_or(0.0), to_agent, port, data: Vec::new() });
         } else if let Some(last) = out.last_mut() {
             for byte in fields {
@@ -90,7 +86,9 @@ pub fn decode_owned(bytes: &[u8]) -> (MessageHeader, Vec<Out>) {
                 object: s.related_request.object_id.raw(),
                 status: s.result.status.0,
             },
-            Submessage::AckNack(a) => Out::AckNack { first: a.first_unacked_seq_num, bitmap: a.bitmap(), stream: a.stream_id },
+            Submessage::AckNack(a) => {
+                Out::AckNack { first: a.first_unacked_seq_num, bitmap: a.bitmap(), stream: a.stream_id }
+            }
             Submessage::Heartbeat(h) => {
                 Out::Heartbeat { first: h.first_unacked_seq_nr, last: h.last_unacked_seq_nr, stream: h.stream_id }
             }
@@ -193,15 +191,32 @@ impl Harness {
                 }
                 if self.auto_ack {
                     let s = self.streams.get(&key).expect("stream");
-                    let ack = AckNack { first_unacked_seq_num: s.next, nack_bitmap: [0, 0], stream_id: header.stream_id.0 };
+                    let ack =
+                        AckNack { first_unacked_seq_num: s.next, nack_bitmap: [0, 0], stream_id: header.stream_id.0 };
                     let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..header };
                     let mut buf = [0u8; 32];
-                    let n = message::encode_single(&mut buf, &h, &Submessage::AckNack(ack), xrce_proto::Endianness::Little)
-                        .expect("encode ack");
+                    let n =
+                        message::encode_single(&mut buf, &h, &Submessage::AckNack(ack), xrce_proto::Endianness::Little)
+                            .expect("encode ack");
                     acks.push((port, buf[..n].to_vec()));
                 }
             } else {
                 let (header, subs) = decode_owned(&t.data);
+                for sub in &subs {
+                    if let (true, Out::Heartbeat { stream, .. }) = (self.auto_ack, sub) {
+                        let next = self.streams.get(&(port, *stream)).map_or(0, |s| s.next);
+                        let ack = AckNack { first_unacked_seq_num: next, nack_bitmap: [0, 0], stream_id: *stream };
+                        let mut buf = [0u8; 32];
+                        let n = message::encode_single(
+                            &mut buf,
+                            &header,
+                            &Submessage::AckNack(ack),
+                            xrce_proto::Endianness::Little,
+                        )
+                        .expect("encode ack");
+                        acks.push((port, buf[..n].to_vec()));
+                    }
+                }
                 self.received.entry(port).or_default().push(Received { header, subs, raw: t.data });
             }
             if self.core.pending_transmits() == 0 && !acks.is_empty() {
@@ -316,7 +331,9 @@ pub struct Client {
 }
 
 use xrce_proto::object::{BinaryObject, Representation, RequesterBinary, TopicBinary};
-use xrce_proto::submessage::{Create, CreationMode, DataFormat, DataPayload, ReadData, ReadSpecification, DataDeliveryControl};
+use xrce_proto::submessage::{
+    Create, CreationMode, DataDeliveryControl, DataFormat, DataPayload, ReadData, ReadSpecification,
+};
 use xrce_proto::{BaseObjectRequest, EntityVariant, ObjectId, ObjectKind, ObjectVariant, RequestId};
 
 impl Client {
@@ -351,7 +368,11 @@ impl Client {
     pub fn create(&mut self, id: ObjectId, variant: EntityVariant<'_>) -> Vec<u8> {
         let mut request = self.next_request();
         request.object_id = id;
-        let c = Create { request, mode: CreationMode { reuse: false, replace: true }, variant: ObjectVariant::Entity(variant) };
+        let c = Create {
+            request,
+            mode: CreationMode { reuse: false, replace: true },
+            variant: ObjectVariant::Entity(variant),
+        };
         self.encode(true, &Submessage::Create(c))
     }
 
@@ -361,7 +382,8 @@ impl Client {
         let t = ObjectId::new(1, ObjectKind::Topic);
         let publ = ObjectId::new(1, ObjectKind::Publisher);
         let sub = ObjectId::new(1, ObjectKind::Subscriber);
-        let topic_bin = BinaryObject::Topic(TopicBinary { topic_name: topic, type_reference: None, type_name: Some("T") });
+        let topic_bin =
+            BinaryObject::Topic(TopicBinary { topic_name: topic, type_reference: None, type_name: Some("T") });
         let writer = BinaryObject::DataWriter(xrce_proto::object::DataWriterBinary { topic_id: t, qos: None });
         let reader = BinaryObject::DataReader(xrce_proto::object::DataReaderBinary { topic_id: t, qos: None });
         let empty = BinaryObject::Raw(&[0, 0]);
@@ -370,16 +392,29 @@ impl Client {
             self.create(t, EntityVariant::child(ObjectKind::Topic, Representation::Binary(topic_bin), p)),
             self.create(publ, EntityVariant::child(ObjectKind::Publisher, Representation::Binary(empty), p)),
             self.create(sub, EntityVariant::child(ObjectKind::Subscriber, Representation::Binary(empty), p)),
-            self.create(ObjectId::new(1, ObjectKind::DataWriter), EntityVariant::child(ObjectKind::DataWriter, Representation::Binary(writer), publ)),
-            self.create(ObjectId::new(1, ObjectKind::DataReader), EntityVariant::child(ObjectKind::DataReader, Representation::Binary(reader), sub)),
+            self.create(
+                ObjectId::new(1, ObjectKind::DataWriter),
+                EntityVariant::child(ObjectKind::DataWriter, Representation::Binary(writer), publ),
+            ),
+            self.create(
+                ObjectId::new(1, ObjectKind::DataReader),
+                EntityVariant::child(ObjectKind::DataReader, Representation::Binary(reader), sub),
+            ),
         ]
     }
 
     /// Participant #1 and a requester or replier #1 of `service`.
     pub fn service_entities(&mut self, service: &str, kind: ObjectKind) -> Vec<Vec<u8>> {
         let p = ObjectId::new(1, ObjectKind::Participant);
-        let bin = RequesterBinary { service_name: service, request_type: "Req", reply_type: "Rep", request_topic_name: None, reply_topic_name: None };
-        let blob = if kind == ObjectKind::Requester { BinaryObject::Requester(bin) } else { BinaryObject::Replier(bin) };
+        let bin = RequesterBinary {
+            service_name: service,
+            request_type: "Req",
+            reply_type: "Rep",
+            request_topic_name: None,
+            reply_topic_name: None,
+        };
+        let blob =
+            if kind == ObjectKind::Requester { BinaryObject::Requester(bin) } else { BinaryObject::Replier(bin) };
         let empty = BinaryObject::Raw(&[0, 0]);
         vec![
             self.create(p, EntityVariant::participant(Representation::Binary(empty), 0)),
@@ -396,7 +431,12 @@ impl Client {
     pub fn read(&mut self, object: ObjectId, stream: u8, control: Option<DataDeliveryControl>) -> Vec<u8> {
         let mut request = self.next_request();
         request.object_id = object;
-        let spec = ReadSpecification { preferred_stream_id: stream, data_format: 0, content_filter_expression: None, delivery_control: control };
+        let spec = ReadSpecification {
+            preferred_stream_id: stream,
+            data_format: 0,
+            content_filter_expression: None,
+            delivery_control: control,
+        };
         self.encode(true, &Submessage::ReadData(ReadData { request, spec }))
     }
 }
