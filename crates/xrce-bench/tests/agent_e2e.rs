@@ -169,8 +169,16 @@ fn reliable_exactly_once_in_order(link: impl Fn(u64) -> LinkConfig, agents: impl
             let (r, stats) =
                 through_proxy(agent.addr, link(seed), |addr| throughput::run(&paced(addr, true, payload), &|_| {}));
             let r = r.unwrap_or_else(|e| panic!("{name}: {e}"));
+            eprintln!(
+                "{name} {payload} B: sent {} received {}, publisher datagrams {}, upstream {:?}",
+                r.sent, r.received, r.datagrams_out, stats.upstream
+            );
             assert_exactly_once_in_order(&r, name);
             assert!(stats.upstream.dropped + stats.upstream.duplicated + stats.upstream.reordered > 0, "{stats:?}");
+            // Bounded retransmissions: a publisher sends each message, its heartbeats, its ACKNACKs and a few
+            // retransmissions, not a storm (go-back-N on every NACK sent 200,000+ datagrams for 5 samples).
+            let messages = r.sent * if payload > 400 { 3 } else { 1 };
+            assert!(r.datagrams_out <= 4 * messages + 200, "{name}: retransmission storm: {r:?}");
         }
         assert!(agent.alive(), "{name} died");
     }
@@ -191,14 +199,14 @@ fn ours_reliable_session_survives_upstream_loss() {
     reliable_exactly_once_in_order(|seed| LinkConfig { reorder: 0.0, ..lossy_link(seed) }, |n| n == "ours");
 }
 
-/// The full fault mix. Ignored: with reordering, the agent's ACKNACKs (one per received message, in
-/// eProsima's agent as in ours) arrive spread out, and the client resends its whole window on each one that
-/// carries a NACK bit: retransmissions grow geometrically until the link saturates (hundreds of thousands of
-/// datagrams for a handful of samples). Run with `--ignored` once the client damps NACK-triggered resends.
+/// The full fault mix. With reordering, the agent's ACKNACKs (one per received message) arrive spread
+/// out and many report the same gap; the client resends only the NACKed sequence numbers and not the same one
+/// twice within a round trip (it used to resend its whole window on each, and retransmissions grew until the
+/// link saturated: 245,301 datagrams for 6 samples). Our agent is left out for the reason given at
+/// `ours_reliable_session_survives_upstream_loss`.
 #[test]
-#[ignore = "retransmission storm under reordering: see docs/benchmarks.md"]
 fn reliable_through_loss_duplication_and_reordering_is_exactly_once_in_order() {
-    reliable_exactly_once_in_order(lossy_link, |_| true);
+    reliable_exactly_once_in_order(lossy_link, |n| n != "ours");
 }
 
 #[test]

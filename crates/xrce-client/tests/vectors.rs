@@ -215,12 +215,62 @@ fn heartbeat_and_acknack_17_6() {
     // Agent HEARTBEAT (0..1) with nothing received: both missing.
     core.handle_input(&hex("81 00 00 00 0B 01 05 00 00 00 01 00 80"), T0, &mut ());
     assert_eq!(drain(&mut core, T0 + 250 * MILLIS), vec![hex("81 00 00 00 0A 01 05 00 00 00 00 03 80")]);
-    // A NACK of seq 0 resends everything unacknowledged, byte-identical.
+    // A NACK of seq 0 resends seq 0 only (selective repeat, unlike the C client's go-back-N), byte-identical.
     core.handle_input(&hex("81 00 00 00 0A 01 05 00 00 00 00 01 80"), T0 + 260 * MILLIS, &mut ());
     let resent = drain(&mut core, T0 + 260 * MILLIS);
-    assert_eq!(resent.len(), 2);
+    assert_eq!(resent.len(), 1);
     assert_eq!(&resent[0][..4], &hex("81 80 00 00")[..]);
-    assert_eq!(&resent[1][..4], &hex("81 80 01 00")[..]);
+}
+
+#[test]
+fn acknack_resends_only_nacked_and_not_twice_within_the_interval() {
+    let mut out_buf = [0u8; 2048];
+    let mut core = established(0x81);
+    let out = core.create_output_reliable_stream(&mut out_buf, 8).unwrap();
+    core.set_retransmit_floor(out, 30 * MILLIS).unwrap();
+    let writer = object_id(1, ObjectKind::DataWriter);
+    let mut originals = Vec::new();
+    for i in 0..6u8 {
+        core.buffer_topic(out, writer, &[i; 8]).unwrap();
+        core.flash_output_streams();
+        originals.extend(drain(&mut core, T0));
+    }
+    assert_eq!(originals.len(), 6);
+    let seqs = |msgs: &[Vec<u8>]| msgs.iter().map(|m| m[2]).collect::<Vec<u8>>();
+    let acknack = |core: &mut Core<'_>, first: u8, bitmap: u16, ms: i64| {
+        let [b0, b1] = bitmap.to_be_bytes();
+        let msg = [0x81, 0, 0, 0, 0x0A, 0x01, 0x05, 0x00, first, 0, b0, b1, 0x80];
+        core.handle_input(&msg, T0 + ms * MILLIS, &mut ());
+        drain(core, T0 + ms * MILLIS)
+    };
+    // first_unacked 1, bits for 1 and 3: seq 0 is released, only 1 and 3 go again, byte-identical.
+    assert_eq!(acknack(&mut core, 1, 0b101, 1), vec![originals[1].clone(), originals[3].clone()]);
+    // The same gaps reported again (the agent sends one ACKNACK per message it receives): nothing within the
+    // interval.
+    assert!(acknack(&mut core, 1, 0b101, 2).is_empty());
+    assert!(acknack(&mut core, 1, 0b101, 10).is_empty());
+    // A gap reported for the first time goes at once, while the others wait.
+    assert_eq!(seqs(&acknack(&mut core, 1, 0b111, 20)), vec![2]);
+    // Nothing acknowledged them meanwhile: the waiting ones go when their interval ends.
+    assert!(drain(&mut core, T0 + 30 * MILLIS).is_empty());
+    assert_eq!(core.poll_timeout(), Some(T0 + 31 * MILLIS));
+    assert_eq!(seqs(&drain(&mut core, T0 + 31 * MILLIS)), vec![1, 3]);
+    // An ACKNACK that only acknowledges never resends.
+    assert!(acknack(&mut core, 2, 0, 32).is_empty());
+    // A stale ACKNACK (older first_unacked) names acknowledged messages: skipped; 3 just went: it waits.
+    assert!(acknack(&mut core, 0, 0b1011, 41).is_empty());
+    // Acknowledged before its interval ended: it never goes.
+    assert!(acknack(&mut core, 4, 0, 45).is_empty());
+    assert!(drain(&mut core, T0 + 70 * MILLIS).is_empty());
+    // Messages sent once go at once when NACKed.
+    assert_eq!(seqs(&acknack(&mut core, 4, 0b11, 71)), vec![4, 5]);
+    // The floor is configurable.
+    core.set_retransmit_floor(out, 5 * MILLIS).unwrap();
+    assert_eq!(seqs(&acknack(&mut core, 4, 0b1, 77)), vec![4]);
+    // Everything acknowledged: nothing left, no heartbeat.
+    assert!(acknack(&mut core, 6, 0, 80).is_empty());
+    assert!(core.output_streams_confirmed());
+    assert!(drain(&mut core, T0 + 500 * MILLIS).is_empty());
 }
 
 #[test]

@@ -46,13 +46,14 @@ impl Clock for StdClock {
     }
 }
 
-/// Transport, clock and message buffers: what the loop needs besides the core and the callbacks.
+/// Transport, clock and the message buffer: what the loop needs besides the core and the callbacks. One buffer
+/// serves both directions: a received message is fully handled (reliable input copies what it keeps into its
+/// own stream buffer) before anything is built for sending.
 #[derive(Debug)]
 struct Io<T, K, const MTU: usize> {
     transport: T,
     clock: K,
-    rx: [u8; MTU],
-    tx: [u8; MTU],
+    buf: [u8; MTU],
 }
 
 impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
@@ -61,8 +62,8 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         core: &mut SessionCore<'_, A, B, C, D>,
     ) -> Result<()> {
         let now = self.clock.now_nanos();
-        while let Some(n) = core.poll_transmit(now, &mut self.tx) {
-            self.transport.send(self.tx.get(..n).unwrap_or(&[]))?;
+        while let Some(n) = core.poll_transmit(now, &mut self.buf) {
+            self.transport.send(self.buf.get(..n).unwrap_or(&[]))?;
         }
         Ok(())
     }
@@ -87,10 +88,10 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
                 (a, b) => a.or(b),
             };
             let wait_ms = wait.map_or(-1, |ns| i32::try_from((ns + MILLIS - 1) / MILLIS).unwrap_or(i32::MAX));
-            if let Some(n) = self.transport.recv(&mut self.rx, wait_ms)? {
+            if let Some(n) = self.transport.recv(&mut self.buf, wait_ms)? {
                 let now = self.clock.now_nanos();
                 let written = core.last_request_id();
-                core.handle_input(self.rx.get(..n).unwrap_or(&[]), now, h);
+                core.handle_input(self.buf.get(..n).unwrap_or(&[]), now, h);
                 if core.last_request_id() != written {
                     // A callback wrote (a replier's reply, say): send it now rather than at the next run, so
                     // `run_session_time` and friends do not end with it unsent (the C client waits for the next
@@ -215,7 +216,7 @@ impl<
         let mtu = transport.mtu().min(MTU);
         Self {
             core: SessionCore::new(super::DEFAULT_SESSION_ID, key, mtu),
-            io: Io { transport, clock, rx: [0; MTU], tx: [0; MTU] },
+            io: Io { transport, clock, buf: [0; MTU] },
             callbacks: C::default(),
         }
     }

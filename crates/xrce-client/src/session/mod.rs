@@ -330,6 +330,19 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         Ok(StreamId::from_index(index, StreamKind::Reliable))
     }
 
+    /// Sets the floor of the interval between two retransmissions of one message on reliable output stream
+    /// `stream` (nanoseconds, default 20 ms; the round-trip estimate raises it on slow links). See
+    /// [`OutputReliable::set_retransmit_floor`].
+    pub fn set_retransmit_floor(&mut self, stream: StreamId, floor_ns: i64) -> Result<()> {
+        match (stream.kind(), self.st.out_rel.get_mut(usize::from(stream.index()))) {
+            (StreamKind::Reliable, Some(Some(s))) => {
+                s.set_retransmit_floor(floor_ns);
+                Ok(())
+            }
+            _ => Err(Error::UnknownStream),
+        }
+    }
+
     /// `uxr_create_input_best_effort_stream`.
     pub fn create_input_best_effort_stream(&mut self) -> Result<StreamId> {
         let (index, slot) = free_slot(&mut self.st.in_be)?;
@@ -596,7 +609,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     pub fn poll_timeout(&self) -> Option<i64> {
         let st = &self.st;
         let retries = [st.session_retry, st.ping_retry].into_iter().flatten().map(|r| r.next);
-        let heartbeats = st.out_rel.iter().flatten().filter_map(OutputReliable::heartbeat_deadline);
+        let heartbeats = st.out_rel.iter().flatten().filter_map(OutputReliable::timeout);
         retries.chain(heartbeats).min()
     }
 

@@ -3,7 +3,27 @@
 //! The buffer is split into `history` slots; slot `seq mod history` holds message `seq`. A message can be
 //! written only while its slot is inside the window (`seq - last_acknown <= history`); when it is not, writes
 //! fail with [`Error::WouldBlock`] instead of stalling. HEARTBEATs go out every 100 ms while something is
-//! unacknowledged; an ACKNACK releases slots and, if it reports any gap, everything unacknowledged is resent.
+//! unacknowledged; an ACKNACK releases slots.
+//!
+//! Retransmission departs from the C client on purpose (the wire is unchanged, the agent sees ordinary,
+//! byte-identical resends). The C client resends its whole unacknowledged window on every ACKNACK carrying a
+//! NACK bit (go-back-N, spec §9.3 step 4). Agents send one ACKNACK per reliable message they receive, so under
+//! loss plus reordering many ACKNACKs report the same gap, each one resent the whole window, each resend drew
+//! more ACKNACKs, and retransmissions grew without bound. Here, as the agent does for its own output (§9.5):
+//! * only the sequence numbers whose NACK bit is set are resent (selective repeat);
+//! * a message already retransmitted is not retransmitted again before a minimum interval since its last
+//!   transmission: `max(floor, srtt)` capped at [`MAX_RETRANSMIT_INTERVAL_NS`], where the round
+//!   trip is estimated from ACKNACKs acknowledging messages sent once (Karn's rule) and the floor defaults to
+//!   [`DEFAULT_RETRANSMIT_FLOOR_NS`] ([`OutputReliable::set_retransmit_floor`]); a first retransmission is
+//!   immediate, as with the C client and the agent;
+//! * an ACKNACK without NACK bits only releases slots, it never resends.
+//!
+//! The HEARTBEAT timer (100 ms) stays the recovery for tail losses: the ACKNACK answering it names the gaps.
+//!
+//! Each slot's 4-byte length word (not on the wire, as in the C client) holds the message length (2 bytes) and
+//! 2 bytes of bookkeeping: whether the message ends with a FRAGMENT, whether it was sent and retransmitted, and
+//! the time of its last transmission in milliseconds modulo 8192. Slot capacity, and so the fragmentation
+//! layout, stay exactly the C client's.
 
 use super::{align4, seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
@@ -13,8 +33,26 @@ use xrce_proto::{ClientKey, MessageHeader, StreamId};
 /// Heartbeat period of the C client (`UCLIENT_MIN_HEARTBEAT_TIME_INTERVAL`), in nanoseconds.
 pub const HEARTBEAT_PERIOD_NS: i64 = 100_000_000;
 
+/// Default floor of the interval between two retransmissions of one message, in nanoseconds.
+pub const DEFAULT_RETRANSMIT_FLOOR_NS: i64 = 20_000_000;
+/// Longest interval between two retransmissions of one message, whatever the round-trip estimate says.
+pub const MAX_RETRANSMIT_INTERVAL_NS: i64 = 1_000_000_000;
+
 /// Slot flag: the message ends with a FRAGMENT, so it is sent without trailing padding.
-const ENDS_WITH_FRAGMENT: u8 = 0x01;
+const ENDS_WITH_FRAGMENT: u16 = 0x01;
+/// Slot flag: the message was sent; the time stamp is valid.
+const SENT: u16 = 0x02;
+/// Slot flag: the message was retransmitted at least once (no round-trip sample from its acknowledgement).
+const RESENT: u16 = 0x04;
+/// Slot bits holding the time of the last transmission, in milliseconds modulo 8192.
+const STAMP_SHIFT: u16 = 3;
+const STAMP_MASK: u16 = 0x1FFF;
+const NS_PER_MS: i64 = 1_000_000;
+
+/// Milliseconds modulo 8192 at `now`.
+fn stamp_ms(now: i64) -> u16 {
+    u16::try_from(now.div_euclid(NS_PER_MS) & i64::from(STAMP_MASK)).unwrap_or(0)
+}
 
 /// A fragmented submessage being written.
 #[derive(Debug, Clone, Copy)]
@@ -39,10 +77,19 @@ pub struct OutputReliable<'a> {
     last_written: u16,
     last_sent: u16,
     last_acknown: u16,
-    resend: Option<u16>,
+    /// NACKed messages to resend now: bit i ↔ `last_acknown + 1 + i`.
+    resend: u16,
+    /// NACKed messages retransmitted too recently, to resend once their interval has passed (same bits).
+    deferred: u16,
+    /// When the first of `deferred` becomes due.
+    deferred_at: Option<i64>,
     flush: bool,
     heartbeat_deadline: Option<i64>,
     chain: Option<Chain>,
+    /// Smoothed round trip in microseconds (0: no sample yet).
+    srtt_us: u32,
+    /// Floor of the interval between two retransmissions of one message, in microseconds.
+    floor_us: u32,
 }
 
 impl<'a> OutputReliable<'a> {
@@ -59,11 +106,16 @@ impl<'a> OutputReliable<'a> {
             last_written: 0,
             last_sent: seq::INIT,
             last_acknown: seq::INIT,
-            resend: None,
+            resend: 0,
+            deferred: 0,
+            deferred_at: None,
             flush: false,
             heartbeat_deadline: None,
             chain: None,
+            srtt_us: 0,
+            floor_us: 0,
         };
+        s.set_retransmit_floor(DEFAULT_RETRANSMIT_FLOOR_NS);
         s.reset();
         Ok(s)
     }
@@ -76,10 +128,40 @@ impl<'a> OutputReliable<'a> {
         self.last_written = 0;
         self.last_sent = seq::INIT;
         self.last_acknown = seq::INIT;
-        self.resend = None;
+        self.resend = 0;
+        self.deferred = 0;
+        self.deferred_at = None;
         self.flush = false;
         self.heartbeat_deadline = None;
         self.chain = None;
+        self.srtt_us = 0;
+    }
+
+    /// Sets the floor of the interval between two retransmissions of one message (nanoseconds; default
+    /// [`DEFAULT_RETRANSMIT_FLOOR_NS`], capped at [`MAX_RETRANSMIT_INTERVAL_NS`]). The interval used is the
+    /// larger of this floor and the round-trip estimate.
+    pub fn set_retransmit_floor(&mut self, floor_ns: i64) {
+        let us = floor_ns.clamp(0, MAX_RETRANSMIT_INTERVAL_NS) / 1000;
+        self.floor_us = u32::try_from(us).unwrap_or(u32::MAX);
+    }
+
+    /// The smoothed round-trip estimate in nanoseconds, once an acknowledgement gave one.
+    pub fn srtt(&self) -> Option<i64> {
+        (self.srtt_us > 0).then(|| i64::from(self.srtt_us) * 1000)
+    }
+
+    /// Minimum time between two retransmissions of one message now: `max(floor, srtt)`, capped. One round
+    /// trip is how long ACKNACKs that left the agent before a retransmission reached it keep coming; a NACK
+    /// arriving later is evidence that the retransmission was lost. (ACKNACKs delayed further by reordering
+    /// cost at most one extra retransmission per interval, never a cascade.)
+    pub fn retransmit_interval(&self) -> i64 {
+        (i64::from(self.srtt_us).max(i64::from(self.floor_us)) * 1000).min(MAX_RETRANSMIT_INTERVAL_NS)
+    }
+
+    /// Folds a round-trip sample into the estimate (exponential average, gain 1/8 as in RFC 6298).
+    fn rtt_sample(&mut self, sample_us: u32) {
+        let r = sample_us.max(1);
+        self.srtt_us = if self.srtt_us == 0 { r } else { (self.srtt_us - self.srtt_us / 8 + r / 8).max(1) };
     }
 
     /// Bytes of message a slot holds (header included): the slot minus its length word.
@@ -108,20 +190,52 @@ impl<'a> OutputReliable<'a> {
         }
     }
 
-    fn flags_of(&self, seq_nr: u16) -> u8 {
-        self.buf.get(self.index(seq_nr) * self.slot + 2).copied().unwrap_or(0)
-    }
-
-    fn set_slot(&mut self, index: usize, len: usize, flags: u8) {
-        let at = index * self.slot;
-        let len = u16::try_from(len).unwrap_or(0).to_le_bytes();
-        if let Some(dst) = self.buf.get_mut(at..at + 3) {
-            dst.copy_from_slice(&[len[0], len[1], flags]);
+    /// The bookkeeping half of the slot's length word.
+    fn flags_of(&self, seq_nr: u16) -> u16 {
+        let at = self.index(seq_nr) * self.slot + 2;
+        match self.buf.get(at..at + 2) {
+            Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
+            _ => 0,
         }
     }
 
-    fn set_len(&mut self, seq_nr: u16, len: usize, flags: u8) {
+    fn set_flags(&mut self, seq_nr: u16, flags: u16) {
+        let at = self.index(seq_nr) * self.slot + 2;
+        if let Some(dst) = self.buf.get_mut(at..at + 2) {
+            dst.copy_from_slice(&flags.to_le_bytes());
+        }
+    }
+
+    fn set_slot(&mut self, index: usize, len: usize, flags: u16) {
+        let at = index * self.slot;
+        let len = u16::try_from(len).unwrap_or(0).to_le_bytes();
+        let flags = flags.to_le_bytes();
+        if let Some(dst) = self.buf.get_mut(at..at + SLOT_LEN_WORD) {
+            dst.copy_from_slice(&[len[0], len[1], flags[0], flags[1]]);
+        }
+    }
+
+    fn set_len(&mut self, seq_nr: u16, len: usize, flags: u16) {
         self.set_slot(self.index(seq_nr), len, flags);
+    }
+
+    /// Records a transmission of message `seq_nr` at `now`.
+    fn stamp(&mut self, seq_nr: u16, now: i64, retransmission: bool) {
+        let old = self.flags_of(seq_nr);
+        let resent = if retransmission { RESENT } else { old & RESENT };
+        let flags = (old & ENDS_WITH_FRAGMENT) | SENT | resent | (stamp_ms(now) << STAMP_SHIFT);
+        self.set_flags(seq_nr, flags);
+    }
+
+    /// Milliseconds since the last transmission of message `seq_nr` (modulo 8192), and whether it was
+    /// retransmitted; `None` if it was never sent.
+    fn since_sent(&self, seq_nr: u16, now: i64) -> Option<(i64, bool)> {
+        let flags = self.flags_of(seq_nr);
+        if flags & SENT == 0 {
+            return None;
+        }
+        let elapsed = stamp_ms(now).wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
+        Some((i64::from(elapsed), flags & RESENT != 0))
     }
 
     /// The message area of slot `seq_nr`.
@@ -364,12 +478,17 @@ impl<'a> OutputReliable<'a> {
     }
 
     fn next_to_send(&mut self, now: i64) -> Option<u16> {
-        if let Some(r) = self.resend {
-            if seq::lt(self.last_acknown, r) && seq::le(r, self.last_sent) {
-                self.resend = Some(r.wrapping_add(1));
+        if self.deferred_at.is_some_and(|at| now >= at) {
+            self.release_deferred(now);
+        }
+        while self.resend != 0 {
+            let offset = self.resend.trailing_zeros();
+            self.resend &= !(1 << offset);
+            let r = self.last_acknown.wrapping_add(1).wrapping_add(u16::try_from(offset).unwrap_or(0));
+            if seq::le(r, self.last_sent) && self.len_of(r) > 0 {
+                self.stamp(r, now, true);
                 return Some(r);
             }
-            self.resend = None;
         }
         let s = self.last_sent.wrapping_add(1);
         if self.len_of(s) == 0 {
@@ -389,6 +508,7 @@ impl<'a> OutputReliable<'a> {
             return None;
         }
         self.last_sent = s;
+        self.stamp(s, now, false);
         if self.heartbeat_deadline.is_none() {
             self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
         }
@@ -419,25 +539,101 @@ impl<'a> OutputReliable<'a> {
         self.heartbeat_deadline
     }
 
-    /// An ACKNACK for this stream: release what is acknowledged, resend everything unacknowledged on any gap.
+    /// An ACKNACK for this stream: release what is acknowledged, then schedule a resend of each NACKed message
+    /// (bit i ↔ `first_unacked + i`) that is still unacknowledged and was not retransmitted within
+    /// [`retransmit_interval`](Self::retransmit_interval). Without NACK bits nothing is resent.
     pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
         let acked = first_unacked.wrapping_sub(1);
         if seq::lt(self.last_acknown, acked) && seq::le(acked, self.last_sent) {
+            // The oldest message released gives a round-trip sample (the ones after it may have waited for it),
+            // unless a retransmission was involved in the range (Karn's rule).
+            let sample = self.since_sent(self.last_acknown.wrapping_add(1), now);
+            let released = acked.wrapping_sub(self.last_acknown);
+            let mut clean = true;
             let mut s = self.last_acknown.wrapping_add(1);
             loop {
+                clean &= self.flags_of(s) & RESENT == 0;
                 self.set_len(s, 0, 0);
                 if s == acked {
                     break;
                 }
                 s = s.wrapping_add(1);
             }
+            if let (true, Some((ms, false))) = (clean, sample) {
+                self.rtt_sample(u32::try_from(ms * 1000).unwrap_or(u32::MAX));
+            }
             self.last_acknown = acked;
+            self.resend = self.resend.checked_shr(u32::from(released)).unwrap_or(0);
+            self.deferred = self.deferred.checked_shr(u32::from(released)).unwrap_or(0);
+            if self.deferred == 0 {
+                self.deferred_at = None;
+            }
+        }
+        if bitmap != 0 {
+            let interval = self.retransmit_interval();
+            let first_pending = self.last_acknown.wrapping_add(1);
+            for i in 0..16u16 {
+                if bitmap & (1 << i) == 0 {
+                    continue;
+                }
+                let s = first_unacked.wrapping_add(i);
+                // A stale ACKNACK may name messages acknowledged since, a bogus one messages never sent.
+                if !seq::le(first_pending, s) || !seq::le(s, self.last_sent) {
+                    continue;
+                }
+                let offset = s.wrapping_sub(first_pending);
+                if offset >= 16 {
+                    continue;
+                }
+                // ACKNACKs answering messages that left before the retransmission reached the agent still
+                // name it: a retransmitted message waits for the interval before going again. If no ACKNACK
+                // acknowledges it meanwhile, the retransmission was lost: it goes when the interval ends.
+                match self.since_sent(s, now) {
+                    Some((ms, true)) if ms * NS_PER_MS < interval => {
+                        self.deferred |= 1 << offset;
+                        let at = now + interval - ms * NS_PER_MS;
+                        self.deferred_at = Some(self.deferred_at.map_or(at, |d| d.min(at)));
+                    }
+                    _ => self.resend |= 1 << offset,
+                }
+            }
+            self.deferred &= !self.resend;
         }
         let unacked = self.last_acknown != self.last_sent;
-        if bitmap != 0 && unacked {
-            self.resend = Some(self.last_acknown.wrapping_add(1));
-        }
         self.heartbeat_deadline = unacked.then_some(now + HEARTBEAT_PERIOD_NS);
+    }
+
+    /// Moves the deferred resends whose interval has passed to the resend set; re-arms the timer for the rest.
+    fn release_deferred(&mut self, now: i64) {
+        let interval = self.retransmit_interval();
+        let first = self.last_acknown.wrapping_add(1);
+        let mut next: Option<i64> = None;
+        for offset in 0..16u16 {
+            if self.deferred & (1 << offset) == 0 {
+                continue;
+            }
+            let s = first.wrapping_add(offset);
+            match self.since_sent(s, now) {
+                Some((ms, _)) if ms * NS_PER_MS < interval && seq::le(s, self.last_sent) => {
+                    let at = now + interval - ms * NS_PER_MS;
+                    next = Some(next.map_or(at, |n| n.min(at)));
+                }
+                _ => {
+                    self.deferred &= !(1 << offset);
+                    self.resend |= 1 << offset;
+                }
+            }
+        }
+        self.deferred_at = next;
+    }
+
+    /// The earliest time this stream has something to do without new input: a HEARTBEAT or a deferred
+    /// retransmission.
+    pub fn timeout(&self) -> Option<i64> {
+        match (self.heartbeat_deadline, self.deferred_at) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
     }
 
     /// Whether everything that can be sent was sent and acknowledged. During a continuous fragmented write the
@@ -455,6 +651,6 @@ impl<'a> OutputReliable<'a> {
     /// Whether a message waits to be (re)sent now.
     pub fn has_pending(&self) -> bool {
         let s = self.last_sent.wrapping_add(1);
-        self.resend.is_some() || (self.len_of(s) > 0 && (seq::lt(s, self.last_written) || self.flush))
+        self.resend != 0 || (self.len_of(s) > 0 && (seq::lt(s, self.last_written) || self.flush))
     }
 }
