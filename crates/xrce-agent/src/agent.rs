@@ -44,7 +44,7 @@ pub enum AgentError {
     #[error(transparent)]
     Middleware(#[from] UnsupportedMiddleware),
     /// The transport is not implemented yet.
-    #[error("transport `{0}` is not implemented yet; available: udp4, udp6, tcp4, tcp6")]
+    #[error("transport `{0}` is not implemented yet; available: udp4, udp6, tcp4, tcp6, serial, multiserial, pseudoterminal")]
     Transport(&'static str),
     /// The refs file could not be loaded.
     #[error(transparent)]
@@ -242,6 +242,9 @@ pub enum AgentHandle {
     Udp(Agent<SocketAddr>),
     /// TCP servers: endpoints are connections.
     Tcp(Agent<ConnId>),
+    /// Serial servers (`serial`, `multiserial`, `pseudoterminal`): endpoints are (line, address).
+    #[cfg(target_os = "linux")]
+    Serial(Agent<crate::transport::serial::SerialEndpoint>),
 }
 
 /// A running agent built from command-line arguments (eProsima's `AgentInstance`).
@@ -251,6 +254,8 @@ pub struct AgentInstance {
     agent: AgentHandle,
     stop: Arc<AtomicBool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
+    /// The `-d` discovery server's thread.
+    discovery: Option<JoinHandle<std::io::Result<()>>>,
     local_addr: Option<SocketAddr>,
 }
 
@@ -268,9 +273,6 @@ impl AgentInstance {
     pub fn from_config(config: Config) -> Result<Self, AgentError> {
         let kind = to_cli_kind(config.middleware);
         let stop = Arc::new(AtomicBool::new(false));
-        if config.discovery.is_some() {
-            tracing::warn!("-d/--discovery is not implemented yet; ignored");
-        }
         if config.p2p.is_some() {
             tracing::warn!("-P/--p2p is not implemented yet; ignored");
         }
@@ -284,7 +286,7 @@ impl AgentInstance {
                 tracing::info!(%local, middleware = kind.name(), "UDP agent running");
                 let stop2 = stop.clone();
                 let handle = std::thread::Builder::new().name("xrce-udp".into()).spawn(move || server.run(&stop2))?;
-                (AgentHandle::Udp(agent), handle, local)
+                (AgentHandle::Udp(agent), handle, Some(local))
             }
             Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
                 let agent = Agent::<ConnId>::new(kind, CoreConfig { info_port: port, ..CoreConfig::default() })?;
@@ -295,11 +297,45 @@ impl AgentInstance {
                 tracing::info!(%local, middleware = kind.name(), "TCP agent running");
                 let stop2 = stop.clone();
                 let handle = std::thread::Builder::new().name("xrce-tcp".into()).spawn(move || server.run(&stop2))?;
-                (AgentHandle::Tcp(agent), handle, local)
+                (AgentHandle::Tcp(agent), handle, Some(local))
+            }
+            #[cfg(target_os = "linux")]
+            Transport::Serial { ref device, baudrate } => {
+                let line = crate::transport::serial::Line::open(Path::new(device), baudrate)?;
+                start_serial(kind, &config, vec![line], &stop)?
+            }
+            #[cfg(target_os = "linux")]
+            Transport::MultiSerial { ref devices, baudrate } => {
+                let lines = devices
+                    .iter()
+                    .map(|d| crate::transport::serial::Line::open(Path::new(d), baudrate))
+                    .collect::<Result<Vec<_>, _>>()?;
+                start_serial(kind, &config, lines, &stop)?
+            }
+            #[cfg(target_os = "linux")]
+            Transport::PseudoTerminal { baudrate } => {
+                let line = crate::transport::serial::Line::pseudoterminal(baudrate)?;
+                // eProsima's message; scripts read the device name from it.
+                println!("Pseudo-Serial device opened at {}", line.name());
+                start_serial(kind, &config, vec![line], &stop)?
             }
             ref other => return Err(AgentError::Transport(other.name())),
         };
-        Ok(Self { config, agent, stop, server: Some(server), local_addr: Some(local_addr) })
+        if config.discovery.is_some() && local_addr.is_none() {
+            tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
+        }
+        let service_port = local_addr.map(|a| a.port());
+        let discovery =
+            match config.discovery.zip(service_port).map(|(port, service)| start_discovery(port, service, &stop)) {
+                Some(Ok(handle)) => Some(handle),
+                Some(Err(e)) => {
+                    stop.store(true, Ordering::Relaxed);
+                    let _ = server.join();
+                    return Err(e);
+                }
+                None => None,
+            };
+        Ok(Self { config, agent, stop, server: Some(server), discovery, local_addr })
     }
 
     /// The command line it was built from.
@@ -336,6 +372,9 @@ impl AgentInstance {
     /// Stops the agent and waits for its server to finish.
     pub fn stop(&mut self) -> Result<(), AgentError> {
         self.stop.store(true, Ordering::Relaxed);
+        if let Some(Ok(Err(e))) = self.discovery.take().map(JoinHandle::join) {
+            tracing::warn!("discovery server: {e}");
+        }
         match self.server.take().map(JoinHandle::join) {
             Some(Ok(result)) => Ok(result?),
             Some(Err(_)) => Err(AgentError::Io(std::io::Error::other("server thread panicked"))),
@@ -348,6 +387,39 @@ impl Drop for AgentInstance {
     fn drop(&mut self) {
         let _ = self.stop();
     }
+}
+
+/// A server thread and what an [`AgentInstance`] keeps of it.
+#[cfg(target_os = "linux")]
+type Started = (AgentHandle, JoinHandle<std::io::Result<()>>, Option<SocketAddr>);
+
+/// Starts a serial server on `lines`.
+#[cfg(target_os = "linux")]
+fn start_serial(
+    kind: MiddlewareKind,
+    config: &Config,
+    lines: Vec<crate::transport::serial::Line>,
+    stop: &Arc<AtomicBool>,
+) -> Result<Started, AgentError> {
+    let agent = Agent::new(kind, CoreConfig::default())?;
+    load_refs(config, &agent.profiles)?;
+    let server = crate::transport::serial::SerialServer::new(lines, agent.core());
+    tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");
+    let stop2 = stop.clone();
+    let handle = std::thread::Builder::new().name("xrce-serial".into()).spawn(move || server.run(&stop2))?;
+    Ok((AgentHandle::Serial(agent), handle, None))
+}
+
+/// Starts the `-d` discovery server on `port` (joining 239.255.0.2), advertising `service_port`.
+fn start_discovery(
+    port: u16,
+    service_port: u16,
+    stop: &Arc<AtomicBool>,
+) -> Result<JoinHandle<std::io::Result<()>>, AgentError> {
+    let server = crate::transport::discovery::DiscoveryServer::bind_multicast(port, service_port)?;
+    tracing::info!(port, service_port, "discovery server running");
+    let stop = stop.clone();
+    Ok(std::thread::Builder::new().name("xrce-discovery".into()).spawn(move || server.run(&stop))?)
 }
 
 fn load_refs(config: &Config, profiles: &StoreProfiles) -> Result<(), AgentError> {

@@ -226,3 +226,52 @@ fn lost_messages_are_retransmitted_and_heartbeats_sent() {
     h.advance(Duration::from_millis(300));
     assert_eq!(h.data(SUB).len(), 20);
 }
+
+/// The publisher's latest ACKNACK for its reliable stream 0x80: first unacknowledged sequence number.
+fn publisher_first_unacked(h: &Harness) -> Option<u16> {
+    h.outs(PUB).into_iter().rev().find_map(|o| match o {
+        Out::AckNack { first, stream: 0x80, .. } => Some(first),
+        _ => None,
+    })
+}
+
+/// Back-pressure: a reliable reader that does not keep up holds the reliable writer back (its messages stay
+/// unacknowledged, so a real client's history fills and its writes block) instead of the agent dropping
+/// samples; once the reader acknowledges, every sample arrives, once, in order.
+#[test]
+fn slow_reliable_reader_holds_the_writer_back_without_loss() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "backpressure", "backpressure");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    h.send(SUB, &s.read(reader, 0x80, unlimited()));
+    h.auto_ack = false;
+    let base = p.seq_rel;
+    let total = 300usize;
+    let msgs: Vec<Vec<u8>> = (0..total as u32).map(|i| p.write(true, writer, &i.to_le_bytes())).collect();
+    // A publisher with a history of 8: it sends while fewer than 8 messages are unacknowledged.
+    let mut sent = 0usize;
+    let run = |h: &mut Harness, sent: &mut usize| -> usize {
+        loop {
+            let acked = publisher_first_unacked(h).map_or(0, |f| usize::from(f.wrapping_sub(base)));
+            if *sent >= total || *sent >= acked + 8 {
+                return acked;
+            }
+            h.send(PUB, &msgs[*sent]);
+            *sent += 1;
+        }
+    };
+    let stalled_at = run(&mut h, &mut sent);
+    assert!(stalled_at < total, "the writer is held back while the reader does not acknowledge");
+    assert_eq!(h.data(SUB).len(), 16, "a reliable window in flight to the reader");
+    // The reader catches up: everything flows, nothing was lost.
+    h.auto_ack = true;
+    for _ in 0..200 {
+        h.advance(Duration::from_millis(250));
+        if run(&mut h, &mut sent) >= total {
+            break;
+        }
+    }
+    let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+    assert_eq!(got, (0..total as u32).collect::<Vec<_>>());
+}

@@ -63,6 +63,8 @@ fn candidates() -> Vec<(&'static str, PathBuf)> {
     // XRCE_BENCH_AGENTS=ours or =eprosima narrows the choice.
     if let Ok(only) = std::env::var("XRCE_BENCH_AGENTS") {
         v.retain(|(name, _)| only.split(',').any(|o| name.starts_with(o.trim())));
+        // CI names the agents it expects: a missing one is a failure there, not a skip.
+        assert!(!v.is_empty(), "XRCE_BENCH_AGENTS={only} names no agent that exists");
     }
     if v.is_empty() {
         eprintln!("no agent found: end-to-end tests skipped");

@@ -240,6 +240,11 @@ impl Participant {
         Ok(RawTopic { topic, keyed })
     }
 
+    /// The participant's topic `name` if some earlier [`Participant::topic`] created it (whatever its type).
+    pub fn find_topic(&self, name: &str) -> Option<RawTopic> {
+        lock(&self.inner.topics).get(name).map(|e| RawTopic { topic: e.topic.clone(), keyed: e.keyed })
+    }
+
     /// A datawriter on `topic`.
     pub fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {
         let q = qos.to_rustdds(false);

@@ -5,6 +5,10 @@ use std::time::Duration;
 
 /// eProsima's reliable window: 16 messages in flight per stream, 16 stored out of order per input stream.
 pub const DEFAULT_RELIABLE_WINDOW: u16 = 16;
+/// Default client limit: 65,536 sessions. eProsima's agent has none; an idle session (participant, topic,
+/// publisher, datawriter) costs about 2 KiB on CED, so a full table stays near 128 MiB, while every stream,
+/// buffer and table of a client is bounded by the other limits below.
+pub const DEFAULT_MAX_CLIENTS: usize = 65_536;
 /// eProsima's `UAGENT_CONFIG_HEARTBEAT_PERIOD`.
 pub const DEFAULT_HEARTBEAT_PERIOD: Duration = Duration::from_millis(200);
 /// eProsima's `CLIENT_DEAD_TIME`.
@@ -16,7 +20,7 @@ pub const DEFAULT_MAX_LIVELINESS_PROBES: u8 = 3;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CoreConfig {
     /// Most clients registered at once; a CREATE_CLIENT beyond it evicts the longest-dead client or is
-    /// refused with `STATUS_ERR_RESOURCES`.
+    /// refused with `STATUS_ERR_RESOURCES`. Default [`DEFAULT_MAX_CLIENTS`].
     pub max_clients: usize,
     /// Most objects (all kinds) one client may own.
     pub max_objects_per_client: usize,
@@ -56,7 +60,7 @@ pub struct CoreConfig {
 impl Default for CoreConfig {
     fn default() -> Self {
         Self {
-            max_clients: 1024,
+            max_clients: DEFAULT_MAX_CLIENTS,
             max_objects_per_client: 1024,
             max_read_tasks_per_client: 256,
             max_streams_per_client: 64,

@@ -11,8 +11,11 @@ pub mod object;
 pub mod read;
 pub mod session;
 pub mod stream;
+pub mod vecmap;
 
 mod process;
+#[cfg(test)]
+mod tests;
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt::Debug;
@@ -48,17 +51,32 @@ pub struct CoreStats {
     pub messages_out: u64,
     /// Outgoing messages dropped (transmit queue full, too large for the MTU on a best-effort stream).
     pub messages_dropped_out: u64,
+    /// Times the shell polled the middleware after its waker fired ([`AgentCore::poll_middleware`]).
+    pub middleware_polls: u64,
 }
 
 /// The agent core. See the module documentation.
 pub struct AgentCore<E, M> {
     config: CoreConfig,
     middleware: M,
-    clients: HashMap<ClientKey, ProxyClient<E>>,
+    /// Boxed: the table's spare capacity then costs a pointer per slot, not a whole client.
+    clients: HashMap<ClientKey, Box<ProxyClient<E>>>,
     by_endpoint: HashMap<E, ClientKey>,
     transmits: VecDeque<Transmit<E>>,
+    /// Recycled message buffers (see [`Self::recycle`]).
+    pool: stream::BufPool,
+    /// Reused list of messages produced while a client is borrowed.
+    scratch: Vec<Vec<u8>>,
     heartbeat_due: Option<Instant>,
     pump_needed: bool,
+    /// Reliable input streams holding a message back until the middleware can take its writes.
+    blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
+    /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
+    acks_due: Vec<(ClientKey, xrce_proto::StreamId)>,
+    /// Clients that may have read tasks (cleaned lazily by the pump).
+    reading: Vec<ClientKey>,
+    /// Reused list of reader ids while pumping.
+    scratch_ids: Vec<ObjectId>,
     wall_anchor: Option<(Instant, Duration)>,
     last_now: Option<Instant>,
     stats: CoreStats,
@@ -87,8 +105,14 @@ where
             clients: HashMap::new(),
             by_endpoint: HashMap::new(),
             transmits: VecDeque::new(),
+            pool: stream::BufPool::default(),
+            scratch: Vec::new(),
             heartbeat_due: None,
             pump_needed: false,
+            blocked: Vec::new(),
+            acks_due: Vec::new(),
+            reading: Vec::new(),
+            scratch_ids: Vec::new(),
             wall_anchor: None,
             last_now: None,
             stats: CoreStats::default(),
@@ -144,14 +168,34 @@ where
         }
         self.last_now = Some(now);
         self.process_datagram(from, bytes, now);
-        if self.pump_needed {
-            self.pump_reads(now);
+        self.pump_and_retry(now);
+    }
+
+    /// Delivers samples, then retries held-back reliable input streams while that makes progress.
+    fn pump_and_retry(&mut self, now: Instant) {
+        for _ in 0..4 {
+            if self.pump_needed {
+                self.pump_reads(now);
+            }
+            if self.blocked.is_empty() {
+                break;
+            }
+            self.retry_blocked(now);
+            if !self.pump_needed {
+                break;
+            }
         }
     }
 
     /// The next instant [`Self::handle_timeout`] must be called, if any.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let reads = self.clients.values().flat_map(|c| c.reads.values()).filter_map(read::ReadTask::wake_at).min();
+        let reads = self
+            .reading
+            .iter()
+            .filter_map(|k| self.clients.get(k))
+            .flat_map(|c| c.reads.values())
+            .filter_map(read::ReadTask::wake_at)
+            .min();
         [self.heartbeat_due, reads].into_iter().flatten().min()
     }
 
@@ -162,22 +206,33 @@ where
             self.heartbeat_due = None;
             self.heartbeat_tick(now);
         }
-        self.pump_reads(now);
+        self.pump_needed = true;
+        self.pump_and_retry(now);
     }
 
     /// Polls the readers of active read tasks; call it when an asynchronous middleware's waker fired.
     pub fn poll_middleware(&mut self, now: Instant) {
-        self.pump_reads(now);
+        self.stats.middleware_polls = self.stats.middleware_polls.saturating_add(1);
+        self.pump_needed = true;
+        self.pump_and_retry(now);
     }
 
     /// The next message to send.
     pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
+        if !self.acks_due.is_empty() {
+            self.flush_acknacks();
+        }
         self.transmits.pop_front()
+    }
+
+    /// Gives the buffer of a sent [`Transmit`] back for reuse (optional; saves an allocation per message).
+    pub fn recycle(&mut self, data: Vec<u8>) {
+        self.pool.put(data);
     }
 
     /// Number of messages waiting in [`Self::poll_transmit`].
     pub fn pending_transmits(&self) -> usize {
-        self.transmits.len()
+        self.transmits.len() + self.acks_due.len()
     }
 
     /// Creates or refreshes a client without a CREATE_CLIENT message (library API; eProsima's
@@ -314,7 +369,8 @@ where
             if client.hard_liveliness.is_some() || self.config.remove_silent_clients_after.is_some() {
                 again = true;
             }
-            for (sid, stream) in &client.streams.rel_out {
+            for (sid, stream) in client.streams.rel_out.iter_mut() {
+                stream.trim();
                 if let Some(hb) = stream.heartbeat(*sid) {
                     beats.push((*key, hb));
                     again = true;
@@ -348,31 +404,41 @@ where
         let Some(client) = self.clients.get(&key) else { return };
         let header = client.header(xrce_proto::StreamId::NONE, 0);
         let to = client.endpoint;
-        if let Some(msg) = encode_message(&header, sub) {
-            self.push_transmit(to, msg);
+        let mut buf = self.pool.get();
+        if encode_into(&mut buf, &header, sub) {
+            self.push_transmit(to, buf);
+        } else {
+            self.pool.put(buf);
         }
     }
 }
 
 /// Encodes `header` + one submessage.
 fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
-    let mut buf = vec![0u8; 256];
-    match xrce_proto::message::encode_single(&mut buf, header, sub, xrce_proto::Endianness::Little) {
-        Ok(n) => {
-            buf.truncate(n);
-            Some(buf)
-        }
+    let mut buf = Vec::new();
+    encode_into(&mut buf, header, sub).then_some(buf)
+}
+
+/// Encodes `header` + one submessage into `buf` (replacing its content); false when it cannot be encoded.
+fn encode_into(buf: &mut Vec<u8>, header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> bool {
+    buf.clear();
+    buf.resize(buf.capacity().clamp(64, 256), 0);
+    let n = match xrce_proto::message::encode_single(buf, header, sub, xrce_proto::Endianness::Little) {
+        Ok(n) => n,
         Err(xrce_proto::cdr::Error::BufferTooSmall { needed }) if needed <= 65_535 + 8 => {
             buf.resize(needed, 0);
-            let n = xrce_proto::message::encode_single(&mut buf, header, sub, xrce_proto::Endianness::Little).ok()?;
-            buf.truncate(n);
-            Some(buf)
+            match xrce_proto::message::encode_single(buf, header, sub, xrce_proto::Endianness::Little) {
+                Ok(n) => n,
+                Err(_) => return false,
+            }
         }
         Err(e) => {
             tracing::warn!("cannot encode {}: {e}", sub.id());
-            None
+            return false;
         }
-    }
+    };
+    buf.truncate(n);
+    true
 }
 
 /// Encodes one submessage (header included) as it would sit after a message header of `header_len` bytes.

@@ -1,8 +1,8 @@
 //! A client's object table: which entities exist and what hangs from what (spec §5.2, §11).
 
-use std::collections::HashMap;
-
 use xrce_proto::{ObjectId, ObjectKind};
+
+use super::vecmap::VecMap;
 
 /// Entry of the object table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -14,7 +14,7 @@ pub struct ObjectEntry {
 /// The objects of one client, keyed by full object id (number and kind).
 #[derive(Debug, Clone, Default)]
 pub struct ObjectTable {
-    objects: HashMap<ObjectId, ObjectEntry>,
+    objects: VecMap<ObjectId, ObjectEntry>,
 }
 
 /// Whether `kind` is one of the 8 kinds an agent creates.

@@ -96,7 +96,7 @@ where
                     self.drop_datagram();
                     return;
                 }
-                if client.streams.be_in.entry(stream.0).or_default().accept(header.sequence_nr) {
+                if client.streams.be_in.get_or_insert_with(stream.0, Default::default).accept(header.sequence_nr) {
                     self.process_message(key, bytes, stream, now, false);
                 } else {
                     tracing::trace!(client = %key, seq = header.sequence_nr, "best-effort: old message dropped");
@@ -119,12 +119,21 @@ where
             return;
         }
         let room = max_buffered.saturating_sub(client.streams.buffered());
-        let input = client.streams.rel_in.entry(stream.0).or_insert_with(|| ReliableIn::new(window));
+        let input = client.streams.rel_in.get_or_insert_with(stream.0, || ReliableIn::new(window));
         match input.receive(header.sequence_nr, bytes, room) {
             InAction::Process => {
-                input.advance();
-                self.process_message(key, bytes, stream, now, false);
-                self.drain_reliable(key, stream, now);
+                if self.write_blocked(key, stream, bytes) {
+                    if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) {
+                        input.hold(bytes);
+                    }
+                    self.mark_blocked(key, stream);
+                } else {
+                    if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) {
+                        input.advance();
+                    }
+                    self.process_message(key, bytes, stream, now, false);
+                    self.drain_reliable(key, stream, now);
+                }
             }
             InAction::Stored => {}
             InAction::Dropped => self.drop_datagram(),
@@ -132,8 +141,10 @@ where
         self.send_acknack(key, stream);
     }
 
-    /// Processes the stored messages of a reliable input stream that became next in order.
-    fn drain_reliable(&mut self, key: ClientKey, stream: StreamId, now: Instant) {
+    /// Processes the stored messages of a reliable input stream that became next in order, stopping at one
+    /// whose writes the middleware cannot take yet (back-pressure). Returns whether any was processed.
+    fn drain_reliable(&mut self, key: ClientKey, stream: StreamId, now: Instant) -> bool {
+        let mut progress = false;
         loop {
             let next = self
                 .clients
@@ -141,14 +152,87 @@ where
                 .and_then(|c| c.streams.rel_in.get_mut(&stream.0))
                 .and_then(ReliableIn::pop_ready);
             let Some(msg) = next else { break };
+            if self.write_blocked(key, stream, &msg) {
+                if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) {
+                    input.unpop(msg);
+                }
+                self.mark_blocked(key, stream);
+                break;
+            }
+            progress = true;
             self.process_message(key, &msg, stream, now, false);
+        }
+        progress
+    }
+
+    fn mark_blocked(&mut self, key: ClientKey, stream: StreamId) {
+        if !self.blocked.contains(&(key, stream)) {
+            self.blocked.push((key, stream));
         }
     }
 
+    /// Whether a reliable message writes to a datawriter whose middleware asks to wait (spec: none; this is
+    /// our back-pressure, see [`Middleware::can_write`]). A FRAGMENT completing a message is judged by the
+    /// WRITE_DATA at the start of the reassembled message.
+    fn write_blocked(&mut self, key: ClientKey, stream: StreamId, msg: &[u8]) -> bool {
+        let Ok((_, subs)) = parse(msg) else { return false };
+        let Some(client) = self.clients.get(&key) else { return false };
+        let mut writers: [Option<ObjectId>; 4] = [None; 4];
+        let mut n = 0;
+        for raw in subs.map_while(Result::ok) {
+            let object = match raw.header.id {
+                xrce_proto::submessage::id::WRITE_DATA => raw.payload().get(2..4),
+                xrce_proto::submessage::id::FRAGMENT
+                    if raw.header.flags & xrce_proto::submessage::flag::LAST_FRAGMENT != 0 =>
+                {
+                    let start = client.streams.rel_in.get(&stream.0).and_then(ReliableIn::reassembly_start);
+                    let start = start.unwrap_or_else(|| raw.payload());
+                    (start.first() == Some(&xrce_proto::submessage::id::WRITE_DATA)).then(|| start.get(6..8)).flatten()
+                }
+                _ => None,
+            };
+            let Some(&[a, b]) = object else { continue };
+            let id = ObjectId([a, b]);
+            if id.kind() != ObjectKind::DataWriter || writers.contains(&Some(id)) {
+                continue;
+            }
+            if let Some(slot) = writers.get_mut(n) {
+                *slot = Some(id);
+                n += 1;
+            }
+        }
+        writers.iter().flatten().any(|id| !self.middleware.can_write(EntityRef::new(key, *id)))
+    }
+
+    /// Retries the reliable input streams held back by [`Self::write_blocked`]; acknowledges what went through.
+    pub(super) fn retry_blocked(&mut self, now: Instant) {
+        if self.blocked.is_empty() {
+            return;
+        }
+        for (key, stream) in std::mem::take(&mut self.blocked) {
+            if self.drain_reliable(key, stream, now) {
+                self.send_acknack(key, stream);
+            }
+        }
+    }
+
+    /// Schedules an ACKNACK for a reliable input stream. ACKNACKs are coalesced: the shell's next
+    /// [`AgentCore::poll_transmit`] sends one per stream with its latest state, so a batch of messages from a
+    /// client costs it one ACKNACK, not one per message.
     fn send_acknack(&mut self, key: ClientKey, stream: StreamId) {
-        let ack = self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
-        if let Some(ack) = ack {
-            self.send_control(key, &Submessage::AckNack(ack));
+        if !self.acks_due.contains(&(key, stream)) {
+            self.acks_due.push((key, stream));
+        }
+    }
+
+    /// Sends the scheduled ACKNACKs.
+    pub(super) fn flush_acknacks(&mut self) {
+        for (key, stream) in std::mem::take(&mut self.acks_due) {
+            let ack =
+                self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
+            if let Some(ack) = ack {
+                self.send_control(key, &Submessage::AckNack(ack));
+            }
         }
     }
 
@@ -282,7 +366,7 @@ where
                 if client.hard_liveliness.is_some() {
                     self.arm_heartbeat(now);
                 }
-                self.clients.insert(key, client);
+                self.clients.insert(key, Box::new(client));
             }
         }
         if let Some(ep) = from {
@@ -404,12 +488,18 @@ where
             Submessage::Heartbeat(hb) => {
                 let sid = StreamId(hb.stream_id);
                 if sid.is_reliable() {
-                    if let Some(input) =
-                        self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&hb.stream_id))
-                    {
-                        input.on_heartbeat(&hb);
+                    // A HEARTBEAT may come before any message of its stream got through (the first one was
+                    // lost): the stream is created here so the ACKNACK asks for what the client holds.
+                    let window = self.config.reliable_window;
+                    let max_streams = self.config.max_streams_per_client;
+                    if let Some(c) = self.clients.get_mut(&key) {
+                        if !c.streams.rel_in.contains_key(&hb.stream_id) && c.streams.count() >= max_streams {
+                            tracing::warn!(client = %key, stream = hb.stream_id, "HEARTBEAT ignored: too many streams");
+                            return Flow::Continue;
+                        }
+                        c.streams.rel_in.get_or_insert_with(hb.stream_id, || ReliableIn::new(window)).on_heartbeat(&hb);
                     }
-                    self.drain_reliable(key, sid, now);
+                    let _ = self.drain_reliable(key, sid, now);
                     self.send_acknack(key, sid);
                 }
                 Flow::Continue
@@ -637,8 +727,12 @@ where
             self.send_status(key, StreamId::BUILTIN_RELIABLE, read.request, StatusCode::ERR_RESOURCES);
             return;
         }
+        self.middleware.set_reader_reliable(entity, task.stream.is_reliable());
         if let Some(client) = self.clients.get_mut(&key) {
             client.reads.insert(id, task);
+        }
+        if !self.reading.contains(&key) {
+            self.reading.push(key);
         }
         self.pump_needed = true;
     }
@@ -648,24 +742,39 @@ where
         let header = client.header(StreamId(ack.stream_id), 0);
         let to = client.endpoint;
         let Some(out) = client.streams.rel_out.get_mut(&ack.stream_id) else { return };
-        let mut sent = Vec::new();
-        out.on_acknack(ack, |m| sent.push(m));
-        out.flush(&header, |m| sent.push(m));
-        for m in sent {
+        let mut sent = std::mem::take(&mut self.scratch);
+        out.on_acknack(ack, &mut self.pool, |m| sent.push(m));
+        out.flush(&header, &mut self.pool, |m| sent.push(m));
+        for m in sent.drain(..) {
             self.push_transmit(to, m);
         }
+        self.scratch = sent;
         self.pump_needed = true;
     }
 
     /// Delivers samples for every active read task while streams have room.
     pub(super) fn pump_reads(&mut self, now: Instant) {
         self.pump_needed = false;
-        let keys: Vec<ClientKey> = self.clients.iter().filter(|(_, c)| !c.reads.is_empty()).map(|(k, _)| *k).collect();
-        for key in keys {
-            let readers: Vec<ObjectId> =
-                self.clients.get(&key).map(|c| c.reads.keys().copied().collect()).unwrap_or_default();
-            for reader in readers {
+        // Only clients with read tasks (not every client), without allocating: the lists are reused.
+        let clients = &self.clients;
+        self.reading.retain(|k| clients.get(k).is_some_and(|c| !c.reads.is_empty()));
+        let keys = std::mem::take(&mut self.reading);
+        let mut readers = std::mem::take(&mut self.scratch_ids);
+        for &key in &keys {
+            readers.clear();
+            if let Some(c) = self.clients.get(&key) {
+                readers.extend(c.reads.keys().copied());
+            }
+            for &reader in &readers {
                 self.pump_reader(key, reader, now);
+            }
+        }
+        self.scratch_ids = readers;
+        // Tasks started meanwhile (none from pumping, but keep them if any).
+        let started = std::mem::replace(&mut self.reading, keys);
+        for k in started {
+            if !self.reading.contains(&k) {
+                self.reading.push(k);
             }
         }
     }
@@ -712,7 +821,7 @@ where
             tracing::warn!(client = %key, size = payload_len, "sample too large for one DATA submessage, dropped");
             return;
         };
-        let mut sub = Vec::with_capacity(4 + payload_len);
+        let mut sub = self.pool.get();
         sub.extend_from_slice(
             &xrce_proto::SubmessageHeader { id: xrce_proto::submessage::id::DATA, flags: 0x01, length }.to_bytes(),
         );
@@ -775,29 +884,31 @@ where
                 let seq = if stream.kind() == StreamKind::None {
                     0
                 } else {
-                    client.streams.be_out.entry(stream.0).or_default().next_seq()
+                    client.streams.be_out.get_or_insert_with(stream.0, Default::default).next_seq()
                 };
-                let mut msg = vec![0u8; header_len];
+                let mut msg = self.pool.get();
+                msg.resize(header_len, 0);
                 if (MessageHeader { sequence_nr: seq, ..header }).encode(&mut msg).is_err() {
                     return;
                 }
                 msg.extend_from_slice(&sub);
+                self.pool.put(sub);
                 self.push_transmit(to, msg);
             }
             StreamKind::Reliable => {
-                let bodies = if fits { vec![sub] } else { fragment(&sub, client.mtu, header_len) };
-                let out =
-                    client.streams.rel_out.entry(stream.0).or_insert_with(|| ReliableOut::new(window, max_pending));
-                if !out.queue(bodies) {
+                let out = client.streams.rel_out.get_or_insert_with(stream.0, || ReliableOut::new(window, max_pending));
+                let queued = if fits { out.queue_one(sub) } else { out.queue(fragment(&sub, client.mtu, header_len)) };
+                if !queued {
                     tracing::warn!(client = %key, stream = stream.0, "reliable output queue full: message dropped");
                     self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
                     return;
                 }
-                let mut sent = Vec::new();
-                out.flush(&header, |m| sent.push(m));
-                for m in sent {
+                let mut sent = std::mem::take(&mut self.scratch);
+                out.flush(&header, &mut self.pool, |m| sent.push(m));
+                for m in sent.drain(..) {
                     self.push_transmit(to, m);
                 }
+                self.scratch = sent;
                 if let Some(now) = now {
                     self.arm_heartbeat(now);
                 }

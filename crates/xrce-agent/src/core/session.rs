@@ -1,7 +1,6 @@
 //! A proxy client: the agent's view of one XRCE client — session, streams, objects, read tasks,
 //! liveliness (spec §10).
 
-use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use xrce_proto::{ClientKey, MessageHeader, ObjectId, StreamId};
@@ -9,18 +8,19 @@ use xrce_proto::{ClientKey, MessageHeader, ObjectId, StreamId};
 use super::object::ObjectTable;
 use super::read::ReadTask;
 use super::stream::{BestEffortIn, BestEffortOut, ReliableIn, ReliableOut};
+use super::vecmap::VecMap;
 
 /// Streams of a session, created on first use.
 #[derive(Debug, Default)]
 pub struct Streams {
     /// Best-effort input streams.
-    pub be_in: HashMap<u8, BestEffortIn>,
+    pub be_in: VecMap<u8, BestEffortIn>,
     /// Reliable input streams.
-    pub rel_in: HashMap<u8, ReliableIn>,
+    pub rel_in: VecMap<u8, ReliableIn>,
     /// Best-effort output streams.
-    pub be_out: HashMap<u8, BestEffortOut>,
+    pub be_out: VecMap<u8, BestEffortOut>,
     /// Reliable output streams.
-    pub rel_out: HashMap<u8, ReliableOut>,
+    pub rel_out: VecMap<u8, ReliableOut>,
 }
 
 impl Streams {
@@ -52,7 +52,7 @@ pub struct ProxyClient<E> {
     /// Objects.
     pub objects: ObjectTable,
     /// Active read tasks by reader/requester/replier id.
-    pub reads: HashMap<ObjectId, ReadTask>,
+    pub reads: VecMap<ObjectId, ReadTask>,
     /// Last time anything came from it.
     pub last_heard: Instant,
     /// Dead time from `uxr_hl`: when present, a dead client is probed and removed.
@@ -73,7 +73,7 @@ impl<E: Copy> ProxyClient<E> {
             endpoint,
             streams: Streams::default(),
             objects: ObjectTable::default(),
-            reads: HashMap::new(),
+            reads: VecMap::default(),
             last_heard: now,
             hard_liveliness: None,
             probes: 0,

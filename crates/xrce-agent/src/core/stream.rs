@@ -16,6 +16,41 @@ pub const fn seq_le(a: u16, b: u16) -> bool {
     a == b || seq_lt(a, b)
 }
 
+/// Recycled message buffers: the hot path (DATA out, ACKNACKs, retransmissions) reuses them instead of
+/// allocating per message. Bounded: at most [`BufPool::MAX_FREE`] buffers of at most
+/// [`BufPool::MAX_CAPACITY`] bytes are kept.
+#[derive(Debug, Default)]
+pub struct BufPool {
+    free: Vec<Vec<u8>>,
+}
+
+impl BufPool {
+    /// Most buffers kept.
+    pub const MAX_FREE: usize = 512;
+    /// Largest buffer kept (a bigger one is freed).
+    pub const MAX_CAPACITY: usize = 4096;
+
+    /// An empty buffer.
+    pub fn get(&mut self) -> Vec<u8> {
+        self.free.pop().unwrap_or_else(|| Vec::with_capacity(256))
+    }
+
+    /// A buffer holding a copy of `bytes`.
+    pub fn copy_of(&mut self, bytes: &[u8]) -> Vec<u8> {
+        let mut v = self.get();
+        v.extend_from_slice(bytes);
+        v
+    }
+
+    /// Returns a buffer for reuse.
+    pub fn put(&mut self, mut buf: Vec<u8>) {
+        if self.free.len() < Self::MAX_FREE && buf.capacity() <= Self::MAX_CAPACITY {
+            buf.clear();
+            self.free.push(buf);
+        }
+    }
+}
+
 /// Best-effort input: newer messages only (spec §9.2).
 #[derive(Debug, Clone)]
 pub struct BestEffortIn {
@@ -59,8 +94,8 @@ pub struct ReliableIn {
     window: u16,
     /// Slot `i` holds message `last_handled + 1 + i`.
     stored: VecDeque<Option<Vec<u8>>>,
-    /// Header of the first fragment and the concatenated fragment payloads.
-    reassembly: Option<(Vec<u8>, Vec<u8>)>,
+    /// Header of the first fragment and the concatenated fragment payloads (boxed: rarely there).
+    reassembly: Option<Box<(Vec<u8>, Vec<u8>)>>,
 }
 
 impl ReliableIn {
@@ -78,7 +113,7 @@ impl ReliableIn {
     /// Bytes held (stored messages and partial reassembly), for the per-client bound.
     pub fn buffered(&self) -> usize {
         let stored: usize = self.stored.iter().flatten().map(Vec::len).sum();
-        stored + self.reassembly.as_ref().map_or(0, |(h, d)| h.len() + d.len())
+        stored + self.reassembly.as_ref().map_or(0, |r| r.0.len() + r.1.len())
     }
 
     /// Classifies message `seq`; stores a copy when it is ahead and `room` allows.
@@ -90,7 +125,7 @@ impl ReliableIn {
         if !seq_le(next, seq) || !seq_lt(seq, next.wrapping_add(self.window)) {
             return InAction::Dropped;
         }
-        if seq == next {
+        if seq == next && !matches!(self.stored.front(), Some(Some(_))) {
             return InAction::Process;
         }
         let index = usize::from(seq.wrapping_sub(next));
@@ -111,6 +146,34 @@ impl ReliableIn {
     pub fn advance(&mut self) {
         self.last_handled = self.last_handled.wrapping_add(1);
         self.stored.pop_front();
+        self.trim();
+    }
+
+    /// Frees the out-of-order storage once nothing is stored (idle sessions keep no buffers).
+    fn trim(&mut self) {
+        if self.stored.iter().all(Option::is_none) && self.stored.capacity() > 0 {
+            self.stored = VecDeque::new();
+        }
+    }
+
+    /// Keeps the next message (just classified [`InAction::Process`]) unprocessed: the middleware cannot take
+    /// it yet. It counts as received (no NACK) but not handled (not acknowledged).
+    pub fn hold(&mut self, message: &[u8]) {
+        match self.stored.front_mut() {
+            Some(slot) => *slot = Some(message.to_vec()),
+            None => self.stored.push_back(Some(message.to_vec())),
+        }
+    }
+
+    /// Puts back a message taken with [`Self::pop_ready`] (it could not be processed yet).
+    pub fn unpop(&mut self, message: Vec<u8>) {
+        self.last_handled = self.last_handled.wrapping_sub(1);
+        self.stored.push_front(Some(message));
+    }
+
+    /// The start of the message being reassembled from FRAGMENTs (its first submessage header onwards).
+    pub fn reassembly_start(&self) -> Option<&[u8]> {
+        self.reassembly.as_ref().map(|r| r.1.as_slice()).filter(|b| !b.is_empty())
     }
 
     /// The next stored message if it is the next in order; marks it handled.
@@ -119,7 +182,9 @@ impl ReliableIn {
             return None;
         }
         self.last_handled = self.last_handled.wrapping_add(1);
-        self.stored.pop_front().flatten()
+        let msg = self.stored.pop_front().flatten();
+        self.trim();
+        msg
     }
 
     /// A HEARTBEAT from the client: give up on messages it no longer holds (spec §9.5).
@@ -129,6 +194,7 @@ impl ReliableIn {
             self.last_handled = self.last_handled.wrapping_add(1);
             self.stored.pop_front();
         }
+        self.trim();
         if seq_lt(self.last_announced, hb.last_unacked_seq_nr) {
             self.last_announced = hb.last_unacked_seq_nr;
         }
@@ -160,7 +226,7 @@ impl ReliableIn {
         last: bool,
         max: usize,
     ) -> Result<Option<Vec<u8>>, usize> {
-        let (head, body) = self.reassembly.get_or_insert_with(|| (header.to_vec(), Vec::new()));
+        let (head, body) = &mut **self.reassembly.get_or_insert_with(|| Box::new((header.to_vec(), Vec::new())));
         if head.len() + body.len() + data.len() > max {
             let size = head.len() + body.len() + data.len();
             self.reassembly = None;
@@ -170,7 +236,8 @@ impl ReliableIn {
         if !last {
             return Ok(None);
         }
-        Ok(self.reassembly.take().map(|(mut h, b)| {
+        Ok(self.reassembly.take().map(|r| {
+            let (mut h, b) = *r;
             h.extend_from_slice(&b);
             h
         }))
@@ -235,9 +302,28 @@ impl ReliableOut {
         self.pending.is_empty() && self.in_flight.len() < usize::from(self.window)
     }
 
+    /// Frees the buffers of an idle stream (nothing in flight or queued), so idle sessions cost little.
+    pub fn trim(&mut self) {
+        if self.in_flight.is_empty() && self.in_flight.capacity() > 0 {
+            self.in_flight = VecDeque::new();
+        }
+        if self.pending.is_empty() && self.pending.capacity() > 0 {
+            self.pending = VecDeque::new();
+        }
+    }
+
     /// Whether messages are unacknowledged (heartbeats are due).
     pub fn has_unacked(&self) -> bool {
         !self.in_flight.is_empty()
+    }
+
+    /// Queues one message body. Returns false when there is no room.
+    pub fn queue_one(&mut self, body: Vec<u8>) -> bool {
+        if self.room() == 0 {
+            return false;
+        }
+        self.pending.push_back(body);
+        true
     }
 
     /// Queues message bodies; all or nothing. Returns false when there is no room.
@@ -251,28 +337,31 @@ impl ReliableOut {
 
     /// Moves queued bodies into the window, stamping `header` with their sequence numbers; `send` gets
     /// each complete message.
-    pub fn flush(&mut self, header: &MessageHeader, mut send: impl FnMut(Vec<u8>)) {
+    pub fn flush(&mut self, header: &MessageHeader, pool: &mut BufPool, mut send: impl FnMut(Vec<u8>)) {
         while self.in_flight.len() < usize::from(self.window) {
             let Some(body) = self.pending.pop_front() else { break };
             let h = MessageHeader { sequence_nr: self.next_seq, ..*header };
-            let mut msg = vec![0u8; h.size()];
+            let mut msg = pool.get();
+            msg.resize(h.size(), 0);
             if h.encode(&mut msg).is_err() {
                 continue;
             }
             msg.extend_from_slice(&body);
+            pool.put(body);
             self.next_seq = self.next_seq.wrapping_add(1);
-            send(msg.clone());
+            send(pool.copy_of(&msg));
             self.in_flight.push_back(msg);
         }
     }
 
     /// An ACKNACK from the client: release what it has, resend what it misses (selective repeat).
-    pub fn on_acknack(&mut self, ack: &AckNack, mut send: impl FnMut(Vec<u8>)) {
+    pub fn on_acknack(&mut self, ack: &AckNack, pool: &mut BufPool, mut send: impl FnMut(Vec<u8>)) {
         let first = ack.first_unacked_seq_num;
         // Only acknowledge what was sent: an ACKNACK beyond next_seq is bogus.
         if seq_le(first, self.next_seq) {
-            while seq_lt(self.first_unacked, first) && !self.in_flight.is_empty() {
-                self.in_flight.pop_front();
+            while seq_lt(self.first_unacked, first) {
+                let Some(done) = self.in_flight.pop_front() else { break };
+                pool.put(done);
                 self.first_unacked = self.first_unacked.wrapping_add(1);
             }
         }
@@ -286,7 +375,7 @@ impl ReliableOut {
                 continue;
             }
             if let Some(msg) = self.in_flight.get(usize::from(seq.wrapping_sub(self.first_unacked))) {
-                send(msg.clone());
+                send(pool.copy_of(msg));
             }
         }
     }
@@ -358,14 +447,16 @@ mod tests {
         let mut out = ReliableOut::new(16, 100);
         assert!(out.queue((0..20u8).map(|i| vec![i]).collect()));
         let mut sent = Vec::new();
-        out.flush(&header, |m| sent.push(m));
+        let mut pool = BufPool::default();
+        out.flush(&header, &mut pool, |m| sent.push(m));
         assert_eq!(sent.len(), 16);
         assert_eq!(out.heartbeat(0x80).map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((0, 15)));
         sent.clear();
-        out.on_acknack(&AckNack { first_unacked_seq_num: 4, nack_bitmap: [0, 1], stream_id: 0x80 }, |m| sent.push(m));
+        let ack = AckNack { first_unacked_seq_num: 4, nack_bitmap: [0, 1], stream_id: 0x80 };
+        out.on_acknack(&ack, &mut pool, |m| sent.push(m));
         assert_eq!(sent, vec![vec![0x81, 0x80, 4, 0, 4]]);
         sent.clear();
-        out.flush(&header, |m| sent.push(m));
+        out.flush(&header, &mut pool, |m| sent.push(m));
         assert_eq!(sent.len(), 4);
     }
 

@@ -145,4 +145,10 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn set_waker(&mut self, waker: Waker) {
         self.inner.set_waker(waker);
     }
+    fn can_write(&mut self, writer: EntityRef) -> bool {
+        self.inner.can_write(writer)
+    }
+    fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
+        self.inner.set_reader_reliable(reader, reliable);
+    }
 }

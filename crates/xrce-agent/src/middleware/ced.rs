@@ -6,6 +6,14 @@
 //! in eProsima. Requesters and repliers meet by `(domain, service name)`: requests go to a ring read by every
 //! replier of the service; a reply is routed back to the requester named in the request's sample identity.
 //!
+//! **Back-pressure.** A datareader whose read task delivers on a reliable stream *pins* its topic: samples it
+//! has not taken are not overwritten by the ring. Past [`RELIABLE_BACKLOG`] samples not yet taken by the
+//! slowest pinning reader, [`Middleware::can_write`] answers false and the core stops consuming the
+//! publisher's reliable input stream, so the publisher's history fills and its writes block instead of
+//! samples being lost. Best-effort readers never pin (oldest samples are dropped). A single message may carry
+//! many writes and is always processed whole: the ring then grows up to [`MAX_BACKLOG`] samples, beyond which
+//! the oldest sample is dropped even for a pinning reader (logged and counted, see [`Ced::forced_drops`]).
+//!
 //! Unlike eProsima's CED, entities described in XML or by a profile reference work: their names come from
 //! the [`ProfileSource`].
 
@@ -20,12 +28,17 @@ use super::{Creation, EntityRef, Middleware, MiddlewareError, Sample};
 
 /// Samples kept per topic and requests per service (eProsima's value).
 pub const DEFAULT_RING_SIZE: usize = 16;
+/// Samples not yet taken by the slowest reliable reader of a topic past which writers are held back.
+pub const RELIABLE_BACKLOG: usize = 64;
+/// Hard bound of a topic's ring: beyond it the oldest sample goes even if a reliable reader has not taken it.
+pub const MAX_BACKLOG: usize = 1024;
 /// Replies waiting per requester; older ones are dropped.
 pub const MAX_PENDING_REPLIES: usize = 64;
 /// Most topics and services the registry holds.
 pub const MAX_TOPICS: usize = 4096;
 
-type TopicKey = (i16, String);
+/// Domain and topic (or service) name; names are shared between every entity of a topic.
+type TopicKey = (i16, Arc<str>);
 /// A request waiting for repliers: its identity and bytes.
 type PendingRequest = (SampleIdentity, Arc<[u8]>);
 
@@ -34,15 +47,28 @@ struct Ring<T> {
     items: VecDeque<(u64, T)>,
     next_seq: u64,
     users: usize,
+    /// Readers delivering on reliable streams: what they have not taken is kept.
+    pinned: Vec<EntityRef>,
 }
 
 impl<T> Ring<T> {
-    fn push(&mut self, item: T, capacity: usize) {
-        if self.items.len() >= capacity {
-            self.items.pop_front();
-        }
+    /// Appends `item`, keeping `capacity` items, or more while `pin` (the oldest sequence number a reliable
+    /// reader still has to take) protects them, up to [`MAX_BACKLOG`]. Returns whether a pinned item was
+    /// dropped.
+    fn push(&mut self, item: T, capacity: usize, pin: Option<u64>) -> bool {
         self.items.push_back((self.next_seq, item));
         self.next_seq += 1;
+        let mut forced = false;
+        while self.items.len() > capacity {
+            let Some(&(oldest, _)) = self.items.front() else { break };
+            let protected = pin.is_some_and(|p| oldest >= p);
+            if protected && self.items.len() <= MAX_BACKLOG {
+                break;
+            }
+            forced |= protected;
+            self.items.pop_front();
+        }
+        forced
     }
 
     /// The item at or after `cursor`, with its sequence number.
@@ -55,13 +81,34 @@ impl<T> Ring<T> {
 
 #[derive(Debug)]
 enum Entity {
-    Participant { domain: i16 },
-    Topic { participant: EntityRef, key: TopicKey },
-    Group { participant: EntityRef },
-    Writer { key: TopicKey },
-    Reader { key: TopicKey, cursor: u64 },
-    Requester { key: TopicKey, replies: VecDeque<(RequestId, Vec<u8>)>, sent: u16 },
-    Replier { key: TopicKey, cursor: u64 },
+    Participant {
+        domain: i16,
+    },
+    Topic {
+        participant: EntityRef,
+        key: TopicKey,
+    },
+    Group {
+        participant: EntityRef,
+    },
+    Writer {
+        key: TopicKey,
+    },
+    Reader {
+        key: TopicKey,
+        cursor: u64,
+    },
+    // Boxed so every entity stays small (requesters are rare, participants and endpoints are not).
+    #[allow(clippy::box_collection)]
+    Requester {
+        key: TopicKey,
+        replies: Box<VecDeque<(RequestId, Vec<u8>)>>,
+        sent: u16,
+    },
+    Replier {
+        key: TopicKey,
+        cursor: u64,
+    },
 }
 
 /// The CED middleware.
@@ -72,6 +119,7 @@ pub struct Ced {
     topics: HashMap<TopicKey, Ring<Arc<[u8]>>>,
     services: HashMap<TopicKey, Ring<PendingRequest>>,
     entities: HashMap<EntityRef, Entity>,
+    forced_drops: u64,
 }
 
 impl std::fmt::Debug for Ced {
@@ -121,6 +169,32 @@ impl Ced {
             topics: HashMap::new(),
             services: HashMap::new(),
             entities: HashMap::new(),
+            forced_drops: 0,
+        }
+    }
+
+    /// Samples a reliable reader had not taken but that went anyway ([`MAX_BACKLOG`] exceeded).
+    pub fn forced_drops(&self) -> u64 {
+        self.forced_drops
+    }
+
+    /// The oldest sequence number a pinning (reliable) reader of `key` has not taken.
+    fn pin(&self, key: &TopicKey) -> Option<u64> {
+        let ring = self.topics.get(key)?;
+        ring.pinned
+            .iter()
+            .filter_map(|r| match self.entities.get(r) {
+                Some(Entity::Reader { cursor, .. }) => Some(*cursor),
+                _ => None,
+            })
+            .min()
+    }
+
+    fn unpin(&mut self, reader: EntityRef) {
+        if let Some(Entity::Reader { key, .. }) = self.entities.get(&reader) {
+            if let Some(ring) = self.topics.get_mut(key) {
+                ring.pinned.retain(|r| *r != reader);
+            }
         }
     }
 
@@ -149,7 +223,11 @@ impl Ced {
         }
     }
 
-    fn attach_topic(&mut self, key: &TopicKey) -> Result<(), MiddlewareError> {
+    /// Attaches to the topic `key`, which then shares the registry's copy of the name.
+    fn attach_topic(&mut self, key: &mut TopicKey) -> Result<(), MiddlewareError> {
+        if let Some((shared, _)) = self.topics.get_key_value(key) {
+            *key = shared.clone();
+        }
         if !self.topics.contains_key(key) && self.topics.len() >= MAX_TOPICS {
             return Err(MiddlewareError::Resources("CED topic registry full".into()));
         }
@@ -157,7 +235,10 @@ impl Ced {
         Ok(())
     }
 
-    fn attach_service(&mut self, key: &TopicKey) -> Result<(), MiddlewareError> {
+    fn attach_service(&mut self, key: &mut TopicKey) -> Result<(), MiddlewareError> {
+        if let Some((shared, _)) = self.services.get_key_value(key) {
+            *key = shared.clone();
+        }
         if !self.services.contains_key(key) && self.services.len() >= MAX_TOPICS {
             return Err(MiddlewareError::Resources("CED service registry full".into()));
         }
@@ -183,7 +264,7 @@ impl Ced {
         topic: &TopicRef,
     ) -> Result<TopicKey, MiddlewareError> {
         match topic {
-            TopicRef::Name { name, .. } => Ok((domain, name.clone())),
+            TopicRef::Name { name, .. } => Ok((domain, Arc::from(name.as_str()))),
             TopicRef::Object(id) => {
                 let topic_ref = EntityRef::new(entity.client, id.with_kind(ObjectKind::Topic));
                 match self.entities.get(&topic_ref) {
@@ -209,7 +290,7 @@ impl Ced {
             }
             (ObjectKind::Topic, Description::Topic { name, .. }) => {
                 let participant = need_parent()?;
-                Entity::Topic { participant, key: (self.participant_domain(participant)?, name) }
+                Entity::Topic { participant, key: (self.participant_domain(participant)?, Arc::from(name)) }
             }
             (ObjectKind::Publisher | ObjectKind::Subscriber, _) => {
                 let participant = need_parent()?;
@@ -226,11 +307,11 @@ impl Ced {
             }
             (ObjectKind::Requester, Description::Service { service_name, .. }) => {
                 let domain = self.participant_domain(need_parent()?)?;
-                Entity::Requester { key: (domain, service_name), replies: VecDeque::new(), sent: 0 }
+                Entity::Requester { key: (domain, Arc::from(service_name)), replies: Box::default(), sent: 0 }
             }
             (ObjectKind::Replier, Description::Service { service_name, .. }) => {
                 let domain = self.participant_domain(need_parent()?)?;
-                Entity::Replier { key: (domain, service_name), cursor: 0 }
+                Entity::Replier { key: (domain, Arc::from(service_name)), cursor: 0 }
             }
             (kind, d) => return Err(invalid(format!("{kind:?} cannot be described as {d:?}"))),
         })
@@ -280,6 +361,7 @@ impl Middleware for Ced {
     }
 
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
+        self.unpin(entity);
         let old =
             self.entities.remove(&entity).ok_or_else(|| MiddlewareError::UnknownReference(format!("{entity:?}")))?;
         self.release(old);
@@ -289,6 +371,7 @@ impl Middleware for Ced {
     fn delete_client(&mut self, client: ClientKey) {
         let mine: Vec<EntityRef> = self.entities.keys().filter(|e| e.client == client).copied().collect();
         for e in mine {
+            self.unpin(e);
             if let Some(old) = self.entities.remove(&e) {
                 self.release(old);
             }
@@ -301,8 +384,15 @@ impl Middleware for Ced {
         };
         let key = key.clone();
         let capacity = self.ring_size;
+        let pin = self.pin(&key);
         if let Some(ring) = self.topics.get_mut(&key) {
-            ring.push(Arc::from(data), capacity);
+            if ring.push(Arc::from(data), capacity, pin) {
+                self.forced_drops = self.forced_drops.saturating_add(1);
+                tracing::warn!(
+                    ?writer,
+                    "CED: backlog bound reached, a sample a reliable reader had not taken was dropped"
+                );
+            }
         }
         Ok(())
     }
@@ -321,7 +411,7 @@ impl Middleware for Ced {
         let key = key.clone();
         let capacity = self.ring_size;
         if let Some(ring) = self.services.get_mut(&key) {
-            ring.push((identity, Arc::from(data)), capacity);
+            ring.push((identity, Arc::from(data)), capacity, None);
         }
         Ok(())
     }
@@ -355,6 +445,29 @@ impl Middleware for Ced {
             Some(Entity::Reader { .. } | Entity::Requester { .. } | Entity::Replier { .. }) => Ok(()),
             Some(_) => Err(MiddlewareError::Unsupported(format!("{reader:?} cannot read"))),
             None => Err(MiddlewareError::UnknownReference(format!("{reader:?}"))),
+        }
+    }
+
+    fn stop_reading(&mut self, reader: EntityRef) {
+        self.unpin(reader);
+    }
+
+    fn can_write(&mut self, writer: EntityRef) -> bool {
+        let Some(Entity::Writer { key }) = self.entities.get(&writer) else { return true };
+        let Some(pin) = self.pin(key) else { return true };
+        let next = self.topics.get(key).map_or(0, |r| r.next_seq);
+        next.saturating_sub(pin) < RELIABLE_BACKLOG as u64
+    }
+
+    fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
+        self.unpin(reader);
+        if !reliable {
+            return;
+        }
+        if let Some(Entity::Reader { key, .. }) = self.entities.get(&reader) {
+            if let Some(ring) = self.topics.get_mut(key) {
+                ring.pinned.push(reader);
+            }
         }
     }
 

@@ -62,6 +62,12 @@ pub trait ProfileSource: Send + Sync {
 
     /// The description an XML text gives for an entity of `kind`.
     fn parse_xml(&self, kind: ObjectKind, xml: &str) -> Result<Description, String>;
+
+    /// The full profile (with QoS) of reference `reference` for an entity of `kind`, when the source holds
+    /// parsed profiles; the DDS middleware creates entities with it. `None` when unknown or not modelled.
+    fn reference_profile(&self, _kind: ObjectKind, _reference: &str) -> Option<crate::profile::EntityProfile> {
+        None
+    }
 }
 
 /// Used when no profile parser or refs file is available: references are names with eProsima CED's

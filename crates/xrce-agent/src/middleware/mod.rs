@@ -1,5 +1,5 @@
 //! The boundary between the XRCE agent core and whatever carries the data: the in-agent router
-//! ([`ced`]), and later real DDS.
+//! ([`ced`]), and a real DDS domain ([`dds`]).
 //!
 //! The core calls the middleware synchronously: to create and delete entities, to write samples, requests
 //! and replies, and to take samples for readers that have an active read task. A middleware whose data
@@ -10,6 +10,7 @@
 
 pub mod callbacks;
 pub mod ced;
+pub mod dds;
 pub mod describe;
 pub mod profiles;
 
@@ -171,6 +172,18 @@ pub trait Middleware {
 
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
+
+    /// Back-pressure for reliable writers: whether `writer` may publish now without making the middleware
+    /// drop a sample that a reliable reader has not taken yet. When false the core leaves the client's
+    /// reliable message unprocessed (held in its input window, unacknowledged) and retries after deliveries,
+    /// so the client's own history fills and its writes block. Default: always.
+    fn can_write(&mut self, _writer: EntityRef) -> bool {
+        true
+    }
+
+    /// The read task of `reader` delivers on a reliable stream (`true`, from its start) or ended / is best
+    /// effort (`false`): samples a reliable reader has not taken should be kept (see [`Self::can_write`]).
+    fn set_reader_reliable(&mut self, _reader: EntityRef, _reliable: bool) {}
 }
 
 impl<M: Middleware + ?Sized> Middleware for Box<M> {
@@ -215,6 +228,12 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     fn set_waker(&mut self, waker: Waker) {
         (**self).set_waker(waker);
     }
+    fn can_write(&mut self, writer: EntityRef) -> bool {
+        (**self).can_write(writer)
+    }
+    fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
+        (**self).set_reader_reliable(reader, reliable);
+    }
 }
 
 /// The middlewares of the command line's `-m`.
@@ -222,9 +241,9 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
 pub enum MiddlewareKind {
     /// Centralized data: routing between the agent's own clients.
     Ced,
-    /// Fast DDS (eProsima's default); not implemented yet.
+    /// A real DDS domain through the pure-Rust `xrce-dds` bridge ([`dds::Dds`]); the default.
     Dds,
-    /// Fast DDS RTPS layer; not implemented yet.
+    /// eProsima's legacy Fast RTPS name: the same DDS middleware (eProsima accepts the word, then has none).
     Rtps,
 }
 
@@ -247,7 +266,7 @@ impl MiddlewareKind {
     pub fn build(self, profiles: Arc<dyn ProfileSource>) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
-            Self::Dds | Self::Rtps => Err(UnsupportedMiddleware(self.name())),
+            Self::Dds | Self::Rtps => Ok(Box::new(dds::Dds::new(profiles))),
         }
     }
 }

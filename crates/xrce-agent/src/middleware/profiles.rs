@@ -76,6 +76,10 @@ impl ProfileSource for StoreProfiles {
         }
     }
 
+    fn reference_profile(&self, kind: ObjectKind, reference: &str) -> Option<EntityProfile> {
+        self.store.read().ok().and_then(|s| s.get(kind, reference).ok())
+    }
+
     fn parse_xml(&self, kind: ObjectKind, xml: &str) -> Result<Description, String> {
         match parse_entity_xml(kind, xml) {
             Ok(profile) => Ok(description_of(profile)),

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore, MAX_BLOCK};
+use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore, WakeSignal, MAX_BLOCK};
 use crate::core::Transmit;
 
 /// Most simultaneous connections; more are closed on accept.
@@ -34,6 +34,7 @@ pub struct TcpServer {
     core: SharedCore<ConnId>,
     writers: Writers,
     next_id: Arc<AtomicU64>,
+    wake: Arc<WakeSignal>,
 }
 
 fn lock_writers(w: &Writers) -> std::sync::MutexGuard<'_, HashMap<ConnId, (SocketAddr, TcpStream)>> {
@@ -87,8 +88,13 @@ impl TcpServer {
     /// Binds `addr` (port 0: an ephemeral port).
     pub fn bind(addr: SocketAddr, core: SharedCore<ConnId>) -> io::Result<Self> {
         let listener = TcpListener::bind(addr)?;
-        anchor_wall_clock(&mut lock(&core));
-        Ok(Self { listener, core, writers: Arc::default(), next_id: Arc::new(AtomicU64::new(1)) })
+        let wake = Arc::new(WakeSignal::default());
+        {
+            let mut c = lock(&core);
+            anchor_wall_clock(&mut c);
+            wake.install(&mut c);
+        }
+        Ok(Self { listener, core, writers: Arc::default(), next_id: Arc::new(AtomicU64::new(1)), wake })
     }
 
     /// The bound address.
@@ -100,8 +106,11 @@ impl TcpServer {
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
         self.listener.set_nonblocking(true)?;
         let timers = {
-            let (core, writers, stop) = (self.core.clone(), self.writers.clone(), stop.clone());
-            thread::Builder::new().name("xrce-tcp-timers".into()).spawn(move || timer_loop(&core, &writers, &stop))?
+            let (core, writers, stop, wake) =
+                (self.core.clone(), self.writers.clone(), stop.clone(), self.wake.clone());
+            thread::Builder::new()
+                .name("xrce-tcp-timers".into())
+                .spawn(move || timer_loop(&core, &writers, &stop, &wake))?
         };
         let mut readers = Vec::new();
         while !stop.load(Ordering::Relaxed) {
@@ -195,13 +204,18 @@ fn read_loop(
     close(core, writers, id);
 }
 
-fn timer_loop(core: &SharedCore<ConnId>, writers: &Writers, stop: &AtomicBool) {
+/// Runs the core's timers, and polls the middleware when its waker fired (samples from a threaded
+/// middleware).
+fn timer_loop(core: &SharedCore<ConnId>, writers: &Writers, stop: &AtomicBool, wake: &WakeSignal) {
     while !stop.load(Ordering::Relaxed) {
         let next = lock(core).poll_timeout();
-        thread::sleep(block_for(next, Instant::now()));
+        let woken = wake.wait(block_for(next, Instant::now()));
         {
             let mut c = lock(core);
             let now = Instant::now();
+            if woken {
+                c.poll_middleware(now);
+            }
             if c.poll_timeout().is_some_and(|t| t <= now) {
                 c.handle_timeout(now);
             }

@@ -1,28 +1,68 @@
 //! UDP shell (IPv4 and IPv6): one XRCE message per datagram, replies to the datagram's source (spec §12.1).
+//!
+//! One thread: it blocks for the first datagram (or the core's next timer, or a middleware wake-up), takes
+//! every queued datagram up to a batch ([`batch`](super::batch), `recvmmsg` on Linux), runs them through the
+//! core under one lock, then sends everything the core produced in batches (`sendmmsg`). Socket buffers are
+//! enlarged ([`SOCKET_BUFFER`]) so bursts are queued rather than dropped while the thread is descheduled.
+//! Sent buffers go back to the core's pool: no allocation per message once warm.
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore};
+use socket2::{Domain, Protocol, Socket, Type};
+
+use super::batch::{RecvBatch, SendBatch};
+use super::{anchor_wall_clock, block_for, hexdump, install_udp_waker, lock, SharedCore, WakeFlag};
+use crate::core::Transmit;
 
 /// Largest datagram received (eProsima's agent buffer).
 pub const MAX_DATAGRAM: usize = 65_535;
+/// Requested `SO_RCVBUF` / `SO_SNDBUF` (the kernel caps it at `net.core.rmem_max` / `wmem_max`).
+pub const SOCKET_BUFFER: usize = 4 << 20;
 
 /// A UDP server around a shared core.
 #[derive(Debug)]
 pub struct UdpServer {
     socket: UdpSocket,
     core: SharedCore<SocketAddr>,
+    wake: Arc<WakeFlag>,
+    /// Source of the middleware's wake-up datagrams.
+    waker_addr: Option<SocketAddr>,
+}
+
+/// Binds a UDP socket with enlarged buffers.
+pub fn bind_socket(addr: SocketAddr) -> io::Result<UdpSocket> {
+    let socket = Socket::new(Domain::for_address(addr), Type::DGRAM, Some(Protocol::UDP))?;
+    if let Err(e) = socket.set_recv_buffer_size(SOCKET_BUFFER) {
+        tracing::debug!("cannot enlarge the UDP receive buffer: {e}");
+    }
+    if let Err(e) = socket.set_send_buffer_size(SOCKET_BUFFER) {
+        tracing::debug!("cannot enlarge the UDP send buffer: {e}");
+    }
+    socket.bind(&addr.into())?;
+    Ok(socket.into())
 }
 
 impl UdpServer {
-    /// Binds `addr` (port 0: an ephemeral port).
+    /// Binds `addr` (port 0: an ephemeral port) and installs the middleware waker.
     pub fn bind(addr: SocketAddr, core: SharedCore<SocketAddr>) -> io::Result<Self> {
-        let socket = UdpSocket::bind(addr)?;
-        anchor_wall_clock(&mut lock(&core));
-        Ok(Self { socket, core })
+        let socket = bind_socket(addr)?;
+        let wake = Arc::new(WakeFlag::default());
+        let waker_addr = {
+            let mut c = lock(&core);
+            anchor_wall_clock(&mut c);
+            match install_udp_waker(&mut c, socket.local_addr()?, wake.clone()) {
+                Ok(a) => Some(a),
+                Err(e) => {
+                    tracing::warn!("no middleware wake-up socket ({e}): samples wait for the next timer");
+                    None
+                }
+            }
+        };
+        Ok(Self { socket, core, wake, waker_addr })
     }
 
     /// The bound address.
@@ -30,41 +70,56 @@ impl UdpServer {
         self.socket.local_addr()
     }
 
-    /// Serves until `stop` is set. Blocks on the socket until data or the core's next timer.
+    /// Serves until `stop` is set. Blocks on the socket until data, the core's next timer or a wake-up.
     pub fn run(&self, stop: &AtomicBool) -> io::Result<()> {
-        let mut buf = vec![0u8; MAX_DATAGRAM];
-        let mut out = Vec::new();
+        let mut rx = RecvBatch::new(MAX_DATAGRAM);
+        let mut tx = SendBatch::new();
+        let mut out: Vec<Transmit<SocketAddr>> = Vec::new();
+        let mut timeout: Option<Duration> = None;
+        let mut wait = super::MAX_BLOCK;
         while !stop.load(Ordering::Relaxed) {
-            let next = lock(&self.core).poll_timeout();
-            self.socket.set_read_timeout(Some(block_for(next, Instant::now())))?;
-            let received = match self.socket.recv_from(&mut buf) {
-                Ok((n, from)) => Some((n, from)),
-                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => None,
-                // ICMP port unreachable from an earlier send, interrupted calls: not fatal.
-                Err(e) if matches!(e.kind(), io::ErrorKind::ConnectionReset | io::ErrorKind::Interrupted) => None,
-                Err(e) => return Err(e),
-            };
+            // Re-arming the socket timeout is a system call: only when the wait must get shorter, or is much
+            // longer than the armed one (a shorter armed timeout merely costs an early turn).
+            if timeout.is_none_or(|t| wait < t || wait > t * 2) {
+                self.socket.set_read_timeout(Some(wait))?;
+                timeout = Some(wait);
+            }
+            let n = rx.recv(&self.socket)?;
+            let hex = tracing::enabled!(target: "xrce_agent::hexdump", tracing::Level::TRACE);
             {
                 let mut core = lock(&self.core);
+                for t in out.drain(..) {
+                    core.recycle(t.data);
+                }
                 let now = Instant::now();
-                if let Some((n, from)) = received {
-                    let bytes = buf.get(..n).unwrap_or(&[]);
-                    hexdump("recv", &from, bytes);
+                for i in 0..n {
+                    let Some((from, bytes)) = rx.get(i) else { continue };
+                    if bytes.is_empty() && Some(from) == self.waker_addr {
+                        continue;
+                    }
+                    if hex {
+                        hexdump("recv", &from, bytes);
+                    }
                     core.handle_datagram(from, bytes, now);
                 }
-                if core.poll_timeout().is_some_and(|t| t <= now) {
+                if self.wake.take() {
+                    core.poll_middleware(now);
+                }
+                let next = core.poll_timeout();
+                if next.is_some_and(|t| t <= now) {
                     core.handle_timeout(now);
                 }
                 while let Some(t) = core.poll_transmit() {
                     out.push(t);
                 }
+                wait = block_for(core.poll_timeout(), now);
             }
-            for t in out.drain(..) {
-                hexdump("send", &t.to, &t.data);
-                if let Err(e) = self.socket.send_to(&t.data, t.to) {
-                    tracing::warn!(peer = %t.to, "UDP send failed: {e}");
+            if hex {
+                for t in &out {
+                    hexdump("send", &t.to, &t.data);
                 }
             }
+            tx.send(&self.socket, &out);
         }
         Ok(())
     }

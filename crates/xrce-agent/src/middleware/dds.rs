@@ -1,0 +1,676 @@
+//! The `dds` middleware (the default of `-m`; `-m rtps` maps here too): XRCE entities become entities of a
+//! real DDS domain, through the untyped bridge of the `xrce-dds` crate (pure-Rust RustDDS).
+//!
+//! * **Participants are shared.** An XRCE participant is a handle on the bridge's DDS participant for its
+//!   domain (255 → `XRCE_DOMAIN_ID_OVERRIDE`, as eProsima). No participant QoS is modelled, so every XRCE
+//!   participant of a domain shares one DDS participant, whatever its name or profile: 1,000 clients cost
+//!   1,000 small map entries and one RustDDS participant, where eProsima's agent creates one Fast DDS
+//!   participant (21 MiB, several threads) per client.
+//! * **Topics** are raw: name, type name (a runtime string) and key kind, from XML (`<kind>WITH_KEY`), a
+//!   `-r` reference or the binary representation (never keyed, as eProsima).
+//! * **Publishers and subscribers** have no DDS counterpart of their own: the bridge gives every
+//!   participant one publisher and one subscriber, and endpoints carry their full QoS. Partitions are not
+//!   applied (logged).
+//! * **Datawriters and datareaders** get the QoS of their description: reliability, durability, history
+//!   kind and depth and resource limits from XML/references (Fast DDS defaults for what is left out), the
+//!   QoS bits of spec §7.4 from binary ones. Resource limits equal to Fast DDS's defaults, or unlimited,
+//!   are replaced by the bridge's bounds, which avoid RustDDS' 64-sample cache (no silent loss on reliable
+//!   topics); explicit ones are honoured.
+//! * **Samples** are opaque CDR bodies: the bridge adds the `00 01 00 00` encapsulation on publish and
+//!   strips it on receive (spec §8.4).
+//! * **Requesters and repliers** bridge to request/reply topics with the related sample identity
+//!   (spec §8.3), so Fast DDS requesters and repliers are peers, and an XRCE requester reaches an XRCE
+//!   replier of the same agent through DDS.
+//! * **Delivery**: readers fill bounded queues on the bridge's dispatcher thread, which calls the
+//!   [`Waker`] installed with [`Middleware::set_waker`]; the core takes samples one by one
+//!   ([`Middleware::next_sample_size`], [`Middleware::take_sample`]) under its READ_DATA delivery control.
+//! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use xrce_dds::{
+    BridgeConfig, DdsBridge, DdsError, Durability, EndpointQos as DdsQos, History, Participant, RawReader, RawTopic,
+    RawWriter, Reliability, Replier, Requester, ResourceLimits, SampleQueue, ServiceDescription,
+};
+use xrce_proto::object::{BinaryObject, EndpointQos as BinaryQos, QosFlags, Representation};
+use xrce_proto::types::{Guid, SequenceNumber};
+use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
+
+use super::describe::{Description, ProfileSource, TopicRef};
+use super::{Creation, EntityRef, Middleware, MiddlewareError, Sample, Waker};
+use crate::profile::{self, EntityProfile};
+
+/// How many times a reliable write is retried when the DDS writer's send window stays full for its
+/// `max_blocking_time` (100 ms by default), before the sample is dropped with a warning. The core thread
+/// blocks meanwhile: that is the back-pressure an XRCE client on a reliable stream feels.
+pub const WRITE_RETRIES: u32 = 20;
+
+/// How a datawriter or datareader names its topic.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum TopicSel {
+    /// A topic object of the same client (binary representation).
+    Object(ObjectId),
+    /// By name (XML and references), with what the description says of type and key.
+    Name { name: String, type_name: Option<String>, keyed: bool },
+}
+
+/// Everything an entity is created from; REUSE compares it whole.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Spec {
+    Participant { domain: u16, name: Option<String> },
+    Topic { name: String, type_name: String, keyed: bool },
+    Group { partitions: Vec<String> },
+    Endpoint { topic: TopicSel, qos: DdsQos },
+    Service { desc: ServiceDescription, qos: DdsQos },
+}
+
+/// The DDS side of an entity.
+enum Handle {
+    Participant(Participant),
+    Topic(RawTopic),
+    Group,
+    Writer(RawWriter),
+    Reader(RawReader),
+    Requester(Requester),
+    Replier(Replier),
+}
+
+struct Node {
+    parent: Option<EntityRef>,
+    spec: Spec,
+    handle: Handle,
+}
+
+impl Node {
+    /// The queue the core reads from, for readers, requesters and repliers.
+    fn queue(&self) -> Option<&SampleQueue> {
+        match &self.handle {
+            Handle::Reader(r) => Some(r.queue()),
+            Handle::Requester(r) => Some(r.replies()),
+            Handle::Replier(r) => Some(r.requests()),
+            _ => None,
+        }
+    }
+}
+
+/// The DDS middleware. See the module documentation.
+pub struct Dds {
+    profiles: Arc<dyn ProfileSource>,
+    bridge: Arc<DdsBridge>,
+    entities: HashMap<EntityRef, Node>,
+    waker: Option<Waker>,
+}
+
+impl std::fmt::Debug for Dds {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Dds").field("bridge", &self.bridge).field("entities", &self.entities.len()).finish()
+    }
+}
+
+fn invalid(msg: impl Into<String>) -> MiddlewareError {
+    MiddlewareError::InvalidDescription(msg.into())
+}
+
+fn dds_error(e: DdsError) -> MiddlewareError {
+    match e {
+        DdsError::Resources(m) => MiddlewareError::Resources(m),
+        other => MiddlewareError::InvalidDescription(other.to_string()),
+    }
+}
+
+fn unknown(what: impl std::fmt::Debug) -> MiddlewareError {
+    MiddlewareError::UnknownReference(format!("{what:?}"))
+}
+
+/// Converts the QoS of an XML profile or reference (Fast DDS defaults already applied).
+fn qos_from_profile(q: &profile::EndpointQos) -> DdsQos {
+    let reliability = match q.reliability {
+        profile::Reliability::Reliable => Reliability::Reliable,
+        profile::Reliability::BestEffort => Reliability::BestEffort,
+    };
+    let durability = match q.durability {
+        profile::Durability::Volatile => Durability::Volatile,
+        profile::Durability::TransientLocal => Durability::TransientLocal,
+        profile::Durability::Transient => Durability::Transient,
+        profile::Durability::Persistent => Durability::Persistent,
+    };
+    let history = match q.history {
+        profile::History::KeepLast(d) => History::KeepLast(d.max(1)),
+        profile::History::KeepAll => History::KeepAll,
+    };
+    // Raw samples of a topic are one instance on our side (keyed or not), so only `max_samples` bounds
+    // anything. Fast DDS's defaults (5000/10/400) and "unlimited" leave the choice to the bridge, whose
+    // bounds never cut a reliable burst short; explicit limits are honoured.
+    let rl = q.resource_limits;
+    let resource_limits = match u32::try_from(rl.max_samples) {
+        Ok(m) if m > 0 && rl != profile::ResourceLimits::default() => {
+            Some(ResourceLimits { max_samples: m, max_instances: 1, max_samples_per_instance: m })
+        }
+        _ => None,
+    };
+    DdsQos { reliability, durability, history, resource_limits, ..DdsQos::default() }
+}
+
+/// Converts the QoS bits of a binary datawriter/datareader (spec §7.4); `None` gives Fast DDS's defaults.
+fn qos_from_binary(base: Option<&BinaryQos<'_>>, writer: bool) -> DdsQos {
+    let Some(b) = base else {
+        let defaults =
+            if writer { profile::EndpointQos::writer_default() } else { profile::EndpointQos::reader_default() };
+        return qos_from_profile(&defaults);
+    };
+    let flags = b.qos_flags;
+    let reliability = if flags & QosFlags::RELIABLE != 0 { Reliability::Reliable } else { Reliability::BestEffort };
+    let history = if flags & QosFlags::HISTORY_KEEP_LAST != 0 {
+        History::KeepLast(u32::from(b.history_depth.unwrap_or(1).max(1)))
+    } else {
+        History::KeepAll
+    };
+    let durability = if flags & QosFlags::DURABILITY_TRANSIENT_LOCAL != 0 {
+        Durability::TransientLocal
+    } else if flags & QosFlags::DURABILITY_TRANSIENT != 0 {
+        Durability::Transient
+    } else if flags & QosFlags::DURABILITY_PERSISTENT != 0 {
+        Durability::Persistent
+    } else {
+        Durability::Volatile
+    };
+    let ms = |v: u32| std::time::Duration::from_millis(u64::from(v));
+    DdsQos {
+        reliability,
+        durability,
+        history,
+        deadline: b.deadline_msec.filter(|&d| d > 0).map(ms),
+        lifespan: b.lifespan_msec.filter(|&d| d > 0).map(ms),
+        ..DdsQos::default()
+    }
+}
+
+fn service(
+    service_name: &str,
+    request_type: &str,
+    reply_type: &str,
+    request_topic: Option<&str>,
+    reply_topic: Option<&str>,
+) -> ServiceDescription {
+    let non_empty = |s: Option<&str>| s.filter(|s| !s.is_empty()).map(str::to_owned);
+    ServiceDescription {
+        service_name: service_name.to_owned(),
+        request_type: request_type.to_owned(),
+        reply_type: reply_type.to_owned(),
+        request_topic_name: non_empty(request_topic),
+        reply_topic_name: non_empty(reply_topic),
+    }
+}
+
+/// XRCE sample identity of a DDS sample identity.
+fn identity_to_xrce(id: &xrce_dds::SampleIdentity) -> SampleIdentity {
+    let (prefix, rest) = id.writer_guid.split_first_chunk::<12>().map_or(([0u8; 12], &[][..]), |(p, r)| (*p, r));
+    let (entity_key, rest) = rest.split_first_chunk::<3>().map_or(([0u8; 3], &[][..]), |(k, r)| (*k, r));
+    let entity_kind = rest.first().copied().unwrap_or(0);
+    let (high, low) = id.sequence_parts();
+    SampleIdentity {
+        writer_guid: Guid { prefix, entity_key, entity_kind },
+        sequence_number: SequenceNumber { high, low },
+    }
+}
+
+/// DDS sample identity of an XRCE one (the identity a replier's WRITE_DATA carries back).
+fn identity_to_dds(id: &SampleIdentity) -> xrce_dds::SampleIdentity {
+    let mut guid = [0u8; 16];
+    for (dst, src) in guid.iter_mut().zip(
+        id.writer_guid
+            .prefix
+            .iter()
+            .chain(id.writer_guid.entity_key.iter())
+            .chain(std::iter::once(&id.writer_guid.entity_kind)),
+    ) {
+        *dst = *src;
+    }
+    xrce_dds::SampleIdentity::from_parts(guid, id.sequence_number.high, id.sequence_number.low)
+}
+
+impl Dds {
+    /// A DDS middleware on every network interface (run the agent in a loopback-only namespace to keep
+    /// DDS on the machine). No DDS participant exists until a client creates one.
+    pub fn new(profiles: Arc<dyn ProfileSource>) -> Self {
+        Self::with_config(profiles, BridgeConfig::default())
+    }
+
+    /// A DDS middleware with an explicit bridge configuration (networks, domain override).
+    pub fn with_config(profiles: Arc<dyn ProfileSource>, config: BridgeConfig) -> Self {
+        Self::with_bridge(profiles, Arc::new(DdsBridge::new(config)))
+    }
+
+    /// A DDS middleware on an existing bridge (its participants are shared with whoever else holds it).
+    pub fn with_bridge(profiles: Arc<dyn ProfileSource>, bridge: Arc<DdsBridge>) -> Self {
+        Self { profiles, bridge, entities: HashMap::new(), waker: None }
+    }
+
+    /// The bridge (DDS participants alive, domain resolution).
+    pub fn bridge(&self) -> &Arc<DdsBridge> {
+        &self.bridge
+    }
+
+    /// Number of XRCE entities held.
+    pub fn entity_count(&self) -> usize {
+        self.entities.len()
+    }
+
+    // ---- descriptions
+
+    fn spec_of(&self, creation: &Creation<'_>) -> Result<Spec, MiddlewareError> {
+        let kind = creation.variant.kind;
+        let mut spec = match creation.variant.representation {
+            Representation::Reference(r) => match self.profiles.reference_profile(kind, r) {
+                Some(p) => spec_from_profile(p)?,
+                None => {
+                    let d = self.profiles.resolve_reference(kind, r).ok_or_else(|| unknown(r))?;
+                    spec_from_description(kind, d)?
+                }
+            },
+            Representation::Xml(x) => match profile::parse_entity_xml(kind, x) {
+                Ok(p) => spec_from_profile(p)?,
+                Err(strict) => {
+                    let d = self.profiles.parse_xml(kind, x).map_err(|e| invalid(format!("{strict}; {e}")))?;
+                    spec_from_description(kind, d)?
+                }
+            },
+            Representation::Binary(blob) => {
+                let typed =
+                    blob.decode_as(kind, creation.endian).map_err(|e| invalid(format!("binary {kind:?}: {e}")))?;
+                spec_from_binary(typed)?
+            }
+        };
+        if let Spec::Participant { domain, .. } = &mut spec {
+            let xrce_domain = creation.variant.domain_id().unwrap_or(0);
+            *domain = self.bridge.resolve_domain(i32::from(xrce_domain)).map_err(dds_error)?;
+        }
+        Ok(spec)
+    }
+
+    // ---- parents
+
+    fn node(&self, entity: EntityRef) -> Result<&Node, MiddlewareError> {
+        self.entities.get(&entity).ok_or_else(|| unknown(entity))
+    }
+
+    fn participant_of(&self, parent: Option<EntityRef>) -> Result<(EntityRef, Participant), MiddlewareError> {
+        let parent = parent.ok_or_else(|| invalid("missing parent"))?;
+        match &self.node(parent)?.handle {
+            Handle::Participant(p) => Ok((parent, p.clone())),
+            _ => Err(invalid(format!("{parent:?} is not a participant"))),
+        }
+    }
+
+    /// The participant above a publisher or subscriber.
+    fn group_participant(&self, parent: Option<EntityRef>) -> Result<(EntityRef, Participant), MiddlewareError> {
+        let group = parent.ok_or_else(|| invalid("missing parent"))?;
+        let node = self.node(group)?;
+        match node.handle {
+            Handle::Group => self.participant_of(node.parent),
+            _ => Err(invalid(format!("{group:?} is not a publisher or subscriber"))),
+        }
+    }
+
+    fn resolve_topic(
+        &self,
+        client: ClientKey,
+        participant_ref: EntityRef,
+        participant: &Participant,
+        sel: &TopicSel,
+    ) -> Result<RawTopic, MiddlewareError> {
+        match sel {
+            TopicSel::Object(id) => {
+                let topic_ref = EntityRef::new(client, id.with_kind(ObjectKind::Topic));
+                let node = self.node(topic_ref)?;
+                match &node.handle {
+                    Handle::Topic(t) if node.parent == Some(participant_ref) => Ok(t.clone()),
+                    Handle::Topic(_) => Err(invalid(format!("topic {topic_ref:?} belongs to another participant"))),
+                    _ => Err(unknown(topic_ref)),
+                }
+            }
+            TopicSel::Name { name, type_name, keyed } => {
+                // As eProsima: the endpoint's topic is the participant's topic of that name. It may have been
+                // created by another XRCE participant sharing the DDS participant.
+                if let Some(t) = participant.find_topic(name) {
+                    if type_name.as_ref().is_some_and(|ty| *ty != t.type_name()) {
+                        tracing::warn!(topic = %name, "endpoint names another type than its topic; the topic's is used");
+                    }
+                    return Ok(t);
+                }
+                match type_name {
+                    Some(ty) => participant.topic(name, ty, *keyed).map_err(dds_error),
+                    None => Err(MiddlewareError::UnknownReference(format!("topic {name:?}"))),
+                }
+            }
+        }
+    }
+
+    fn build(&self, creation: &Creation<'_>, spec: &Spec) -> Result<Handle, MiddlewareError> {
+        let entity = creation.entity;
+        let parent = creation.parent;
+        Ok(match (entity.kind(), spec) {
+            (ObjectKind::Participant, Spec::Participant { domain, .. }) => {
+                // Shared: one DDS participant per domain (no participant QoS is modelled).
+                Handle::Participant(self.bridge.participant(i32::from(*domain), "").map_err(dds_error)?)
+            }
+            (ObjectKind::Topic, Spec::Topic { name, type_name, keyed }) => {
+                let (_, p) = self.participant_of(parent)?;
+                Handle::Topic(p.topic(name, type_name, *keyed).map_err(dds_error)?)
+            }
+            (ObjectKind::Publisher | ObjectKind::Subscriber, Spec::Group { partitions }) => {
+                self.participant_of(parent)?;
+                if !partitions.is_empty() {
+                    tracing::warn!(?entity, ?partitions, "DDS middleware: partitions are not applied");
+                }
+                Handle::Group
+            }
+            (ObjectKind::DataWriter, Spec::Endpoint { topic, qos }) => {
+                let (pref, p) = self.group_participant(parent)?;
+                let t = self.resolve_topic(entity.client, pref, &p, topic)?;
+                Handle::Writer(p.create_writer(&t, qos).map_err(dds_error)?)
+            }
+            (ObjectKind::DataReader, Spec::Endpoint { topic, qos }) => {
+                let (pref, p) = self.group_participant(parent)?;
+                let t = self.resolve_topic(entity.client, pref, &p, topic)?;
+                Handle::Reader(p.create_reader(&t, qos).map_err(dds_error)?)
+            }
+            (ObjectKind::Requester, Spec::Service { desc, qos }) => {
+                let (_, p) = self.participant_of(parent)?;
+                Handle::Requester(Requester::new(&p, desc, qos).map_err(dds_error)?)
+            }
+            (ObjectKind::Replier, Spec::Service { desc, qos }) => {
+                let (_, p) = self.participant_of(parent)?;
+                Handle::Replier(Replier::new(&p, desc, qos).map_err(dds_error)?)
+            }
+            (kind, s) => return Err(invalid(format!("{kind:?} cannot be described as {s:?}"))),
+        })
+    }
+}
+
+fn spec_from_profile(p: EntityProfile) -> Result<Spec, MiddlewareError> {
+    Ok(match p {
+        EntityProfile::Participant(p) => Spec::Participant { domain: 0, name: p.name },
+        EntityProfile::Topic(t) => Spec::Topic {
+            type_name: t.type_name.ok_or_else(|| invalid(format!("topic {:?} has no dataType", t.name)))?,
+            name: t.name,
+            keyed: t.keyed,
+        },
+        EntityProfile::Publisher(g) => Spec::Group { partitions: g.partitions },
+        EntityProfile::Subscriber(g) => Spec::Group { partitions: g.partitions },
+        EntityProfile::DataWriter(w) => Spec::Endpoint {
+            qos: qos_from_profile(&w.qos),
+            topic: TopicSel::Name { name: w.topic.name, type_name: w.topic.type_name, keyed: w.topic.keyed },
+        },
+        EntityProfile::DataReader(r) => Spec::Endpoint {
+            qos: qos_from_profile(&r.qos),
+            topic: TopicSel::Name { name: r.topic.name, type_name: r.topic.type_name, keyed: r.topic.keyed },
+        },
+        EntityProfile::Requester(s) | EntityProfile::Replier(s) => Spec::Service {
+            desc: service(
+                &s.service_name,
+                &s.request_type,
+                &s.reply_type,
+                Some(&s.request_topic_name),
+                Some(&s.reply_topic_name),
+            ),
+            qos: DdsQos::default(),
+        },
+    })
+}
+
+/// For descriptions without QoS (the tolerant XML scan, references resolved by name only).
+fn spec_from_description(kind: ObjectKind, d: Description) -> Result<Spec, MiddlewareError> {
+    Ok(match d {
+        Description::Participant { name, .. } => Spec::Participant { domain: 0, name },
+        Description::Topic { name, type_name } => Spec::Topic {
+            type_name: type_name.ok_or_else(|| invalid(format!("topic {name:?} has no type name")))?,
+            name,
+            keyed: false,
+        },
+        Description::Group => Spec::Group { partitions: Vec::new() },
+        Description::Endpoint { topic } => {
+            let writer = kind == ObjectKind::DataWriter;
+            let defaults =
+                if writer { profile::EndpointQos::writer_default() } else { profile::EndpointQos::reader_default() };
+            let topic = match topic {
+                TopicRef::Name { name, type_name } => TopicSel::Name { name, type_name, keyed: false },
+                TopicRef::Object(id) => TopicSel::Object(id),
+            };
+            Spec::Endpoint { topic, qos: qos_from_profile(&defaults) }
+        }
+        Description::Service { service_name, request_type, reply_type } => {
+            let (Some(req), Some(rep)) = (request_type, reply_type) else {
+                return Err(invalid(format!("service {service_name:?} lacks its request or reply type")));
+            };
+            Spec::Service { desc: service(&service_name, &req, &rep, None, None), qos: DdsQos::default() }
+        }
+    })
+}
+
+fn spec_from_binary(b: BinaryObject<'_>) -> Result<Spec, MiddlewareError> {
+    Ok(match b {
+        BinaryObject::Participant(p) => {
+            Spec::Participant { domain: 0, name: p.qos_profile_reference.map(str::to_owned) }
+        }
+        BinaryObject::Topic(t) => Spec::Topic {
+            name: t.topic_name.to_owned(),
+            type_name: t
+                .type_name
+                .ok_or_else(|| invalid(format!("binary topic {:?} has no type name", t.topic_name)))?
+                .to_owned(),
+            keyed: false,
+        },
+        BinaryObject::Publisher(_) | BinaryObject::Subscriber(_) => Spec::Group { partitions: Vec::new() },
+        BinaryObject::DataWriter(w) => Spec::Endpoint {
+            topic: TopicSel::Object(w.topic_id),
+            qos: qos_from_binary(w.qos.as_ref().map(|q| &q.base), true),
+        },
+        BinaryObject::DataReader(r) => Spec::Endpoint {
+            topic: TopicSel::Object(r.topic_id),
+            qos: qos_from_binary(r.qos.as_ref().map(|q| &q.base), false),
+        },
+        BinaryObject::Requester(s) | BinaryObject::Replier(s) => Spec::Service {
+            desc: service(s.service_name, s.request_type, s.reply_type, s.request_topic_name, s.reply_topic_name),
+            qos: DdsQos::default(),
+        },
+        BinaryObject::Raw(_) => return Err(invalid("undecodable binary representation")),
+    })
+}
+
+impl Middleware for Dds {
+    fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
+        let spec = self.spec_of(creation)?;
+        let handle = self.build(creation, &spec)?;
+        let node = Node { parent: creation.parent, spec, handle };
+        if let (Some(w), Some(q)) = (&self.waker, node.queue()) {
+            q.set_waker(Some(Arc::clone(w)));
+        }
+        self.entities.insert(creation.entity, node);
+        Ok(())
+    }
+
+    fn matches(&self, creation: &Creation<'_>) -> bool {
+        let Some(node) = self.entities.get(&creation.entity) else { return false };
+        match self.spec_of(creation) {
+            Ok(spec) => node.parent == creation.parent && node.spec == spec,
+            Err(_) => false,
+        }
+    }
+
+    fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
+        self.entities.remove(&entity).map(drop).ok_or_else(|| unknown(entity))
+    }
+
+    fn delete_client(&mut self, client: ClientKey) {
+        self.entities.retain(|e, _| e.client != client);
+    }
+
+    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
+        let node = self.node(writer)?;
+        let Handle::Writer(w) = &node.handle else {
+            return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
+        };
+        let mut tries = 0;
+        loop {
+            match w.write(data) {
+                Ok(_) => return Ok(()),
+                Err(DdsError::Resources(m)) if tries < WRITE_RETRIES => {
+                    tries += 1;
+                    tracing::debug!(?writer, "DDS write blocked ({m}), retrying");
+                }
+                Err(e) => {
+                    tracing::warn!(?writer, "DDS write failed, sample dropped: {e}");
+                    return Err(dds_error(e));
+                }
+            }
+        }
+    }
+
+    fn write_request(
+        &mut self,
+        requester: EntityRef,
+        request_id: RequestId,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError> {
+        let node = self.node(requester)?;
+        let Handle::Requester(r) = &node.handle else {
+            return Err(MiddlewareError::Unsupported(format!("{requester:?} is not a requester")));
+        };
+        r.write_request(u32::from(request_id.0), data).map(drop).map_err(dds_error)
+    }
+
+    fn write_reply(
+        &mut self,
+        replier: EntityRef,
+        identity: &SampleIdentity,
+        data: &[u8],
+    ) -> Result<(), MiddlewareError> {
+        let node = self.node(replier)?;
+        let Handle::Replier(r) = &node.handle else {
+            return Err(MiddlewareError::Unsupported(format!("{replier:?} is not a replier")));
+        };
+        r.write_reply(&identity_to_dds(identity), data).map(drop).map_err(dds_error)
+    }
+
+    fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
+        let node = self.node(reader)?;
+        match node.queue() {
+            Some(q) => {
+                if let Some(w) = &self.waker {
+                    q.set_waker(Some(Arc::clone(w)));
+                }
+                Ok(())
+            }
+            None => Err(MiddlewareError::Unsupported(format!("{reader:?} cannot read"))),
+        }
+    }
+
+    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
+        let node = self.entities.get(&reader)?;
+        let len = node.queue()?.next_len()?;
+        Some(match node.handle {
+            Handle::Replier(_) => SampleIdentity::SIZE + len,
+            Handle::Requester(_) => 4 + len,
+            _ => len,
+        })
+    }
+
+    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
+        let node = self.entities.get(&reader)?;
+        let s = node.queue()?.pop()?;
+        Some(match node.handle {
+            Handle::Replier(_) => Sample::Request { identity: identity_to_xrce(&s.identity), data: s.data },
+            Handle::Requester(_) => {
+                let id = s.request_id.and_then(|id| u16::try_from(id).ok()).unwrap_or(0);
+                Sample::Reply { request_id: RequestId(id), data: s.data }
+            }
+            _ => Sample::Data(s.data),
+        })
+    }
+
+    fn set_waker(&mut self, waker: Waker) {
+        for node in self.entities.values() {
+            if let Some(q) = node.queue() {
+                q.set_waker(Some(Arc::clone(&waker)));
+            }
+        }
+        self.waker = Some(waker);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn binary_qos_bits_map_to_dds_qos() {
+        let b = BinaryQos {
+            qos_flags: QosFlags::RELIABLE | QosFlags::HISTORY_KEEP_LAST | QosFlags::DURABILITY_TRANSIENT_LOCAL,
+            history_depth: Some(10),
+            deadline_msec: Some(1500),
+            lifespan_msec: None,
+            user_data: None,
+        };
+        let q = qos_from_binary(Some(&b), true);
+        assert_eq!(q.reliability, Reliability::Reliable);
+        assert_eq!(q.history, History::KeepLast(10));
+        assert_eq!(q.durability, Durability::TransientLocal);
+        assert_eq!(q.deadline, Some(std::time::Duration::from_millis(1500)));
+        let be = qos_from_binary(Some(&BinaryQos { qos_flags: 0, ..b }), false);
+        assert_eq!(
+            (be.reliability, be.history, be.durability),
+            (Reliability::BestEffort, History::KeepAll, Durability::Volatile)
+        );
+        // Without QoS: Fast DDS defaults.
+        let w = qos_from_binary(None, true);
+        assert_eq!(
+            (w.reliability, w.durability, w.history),
+            (Reliability::Reliable, Durability::TransientLocal, History::KeepLast(1))
+        );
+        let r = qos_from_binary(None, false);
+        assert_eq!(r.reliability, Reliability::BestEffort);
+    }
+
+    #[test]
+    fn profile_resource_limits_defaults_are_left_to_the_bridge() {
+        let mut q = profile::EndpointQos::reader_default();
+        assert_eq!(qos_from_profile(&q).resource_limits, None);
+        q.resource_limits.max_samples = 200;
+        let rl = qos_from_profile(&q).resource_limits.unwrap();
+        assert_eq!((rl.max_samples, rl.max_samples_per_instance), (200, 200));
+        q.resource_limits.max_samples = -1;
+        assert_eq!(qos_from_profile(&q).resource_limits, None);
+    }
+
+    #[test]
+    fn sample_identity_round_trips() {
+        let mut guid = [0u8; 16];
+        for (i, b) in guid.iter_mut().enumerate() {
+            *b = i as u8 + 1;
+        }
+        let id = xrce_dds::SampleIdentity::from_parts(guid, 2, 0xDEAD_BEEF);
+        let x = identity_to_xrce(&id);
+        assert_eq!(x.writer_guid.prefix, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]);
+        assert_eq!(x.writer_guid.entity_key, [13, 14, 15]);
+        assert_eq!(x.writer_guid.entity_kind, 16);
+        assert_eq!((x.sequence_number.high, x.sequence_number.low), (2, 0xDEAD_BEEF));
+        assert_eq!(identity_to_dds(&x), id);
+    }
+
+    #[test]
+    fn xml_and_binary_specs_carry_names_types_and_keys() {
+        let xml = "<dds><topic><name>T</name><dataType>Ty</dataType><kind>WITH_KEY</kind></topic></dds>";
+        let p = profile::parse_entity_xml(ObjectKind::Topic, xml).unwrap();
+        assert_eq!(
+            spec_from_profile(p).unwrap(),
+            Spec::Topic { name: "T".into(), type_name: "Ty".into(), keyed: true }
+        );
+        let xml =
+            r#"<dds><requester profile_name="r"service_name="s"request_type="a"reply_type="b"></requester></dds>"#;
+        let p = profile::parse_entity_xml(ObjectKind::Requester, xml).unwrap();
+        let Spec::Service { desc, .. } = spec_from_profile(p).unwrap() else { panic!("service") };
+        assert_eq!((desc.request_topic(), desc.reply_topic()), ("s_Request".to_owned(), "s_Reply".to_owned()));
+    }
+}

@@ -1,0 +1,234 @@
+//! Interop through the real agent binary with the DDS middleware (the default `-m dds`): our XRCE client
+//! (`xrce-client`, over UDP) on one side, Fast DDS 2.9 (`hello_fastdds`) and Cyclone DDS 11
+//! (`hello_cyclone.py`, `keyed_cyclone.py`) on the other. Needs the peers built by `.ci/dds-peers.sh DIR`
+//! and a loopback-only namespace:
+//!
+//!   .ci/dds-peers.sh target/dds-peers
+//!   XRCE_DDS_PEERS=$PWD/target/dds-peers ../shared/dds-peers/netns.sh xdds \
+//!       cargo test -p xrce-agent --test dds_interop -- --ignored --test-threads 1
+
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use xrce_client::prelude::*;
+
+fn require_loopback_namespace() {
+    let ifaces: Vec<String> = std::fs::read_dir("/sys/class/net")
+        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
+        .unwrap_or_default();
+    assert!(ifaces == ["lo"], "DDS tests must run inside a loopback-only namespace; interfaces here: {ifaces:?}");
+}
+
+fn peers() -> PathBuf {
+    PathBuf::from(
+        std::env::var_os("XRCE_DDS_PEERS").expect("set XRCE_DDS_PEERS to the directory .ci/dds-peers.sh built"),
+    )
+}
+
+fn python(script: &str, args: &[&str]) -> Command {
+    let dir = peers();
+    let mut c = Command::new(dir.join("venv/bin/python"));
+    c.arg(dir.join(script)).args(args);
+    c.env("CYCLONEDDS_URI", format!("file://{}", dir.join("cyclonedds-lo.xml").display()));
+    c
+}
+
+fn fastdds(args: &[&str]) -> Command {
+    let mut c = Command::new(peers().join("hello_fastdds"));
+    c.args(args);
+    c
+}
+
+fn spawn(mut c: Command) -> Child {
+    c.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("peer starts")
+}
+
+fn finish(c: Child, name: &str) -> (bool, String) {
+    let out = c.wait_with_output().expect("peer runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    println!("--- {name} (exit {:?})\n{stdout}{}", out.status.code(), String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), stdout)
+}
+
+/// Our agent binary, killed when dropped.
+struct AgentProcess(Child);
+
+impl AgentProcess {
+    fn start(port: u16) -> Self {
+        require_loopback_namespace();
+        let child = Command::new(env!("CARGO_BIN_EXE_xrce-agent"))
+            .args(["udp4", "-p", &port.to_string(), "-v", "3"])
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("agent starts");
+        std::thread::sleep(Duration::from_millis(300));
+        Self(child)
+    }
+}
+
+impl Drop for AgentProcess {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// CDR body of `struct HelloWorld { unsigned long index; string message; }`.
+fn hello_body(index: u32, msg: &str) -> Vec<u8> {
+    let mut v = Vec::new();
+    v.extend_from_slice(&index.to_le_bytes());
+    v.extend_from_slice(&(msg.len() as u32 + 1).to_le_bytes());
+    v.extend_from_slice(msg.as_bytes());
+    v.push(0);
+    v
+}
+
+fn hello_decode(b: &[u8]) -> Option<(u32, String)> {
+    let index = u32::from_le_bytes(b.get(0..4)?.try_into().ok()?);
+    let len = u32::from_le_bytes(b.get(4..8)?.try_into().ok()?) as usize;
+    let s = b.get(8..8 + len.saturating_sub(1))?;
+    Some((index, String::from_utf8_lossy(s).into_owned()))
+}
+
+const HISTORY: usize = 8;
+const BUF: usize = 512 * HISTORY;
+const PARTICIPANT_XML: &str =
+    "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
+
+/// An XRCE client publishing HelloWorld on `topic` (XML entities, as eProsima's PublishHelloWorld), one
+/// sample every 100 ms with increasing index, until `stop`. Returns how many it wrote.
+fn xrce_publisher(port: u16, topic: &'static str, keyed: bool, stop: Arc<AtomicBool>) -> JoinHandle<u32> {
+    std::thread::spawn(move || {
+        let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
+        let mut out_buf = [0u8; BUF];
+        let mut in_buf = [0u8; BUF];
+        let mut session = Session::new(transport, 0xAAAA_BBBB);
+        session.create_session().expect("session");
+        let out = session.create_output_reliable_stream(&mut out_buf, HISTORY).expect("out stream");
+        session.create_input_reliable_stream(&mut in_buf, HISTORY).expect("in stream");
+        let kind = if keyed { "WITH_KEY" } else { "NO_KEY" };
+        let p = object_id(1, ObjectKind::Participant);
+        let t = object_id(1, ObjectKind::Topic);
+        let publ = object_id(1, ObjectKind::Publisher);
+        let dw = object_id(1, ObjectKind::DataWriter);
+        let topic_xml =
+            format!("<dds><topic><name>{topic}</name><dataType>HelloWorld</dataType><kind>{kind}</kind></topic></dds>");
+        let dw_xml = format!(
+            "<dds><data_writer><topic><kind>{kind}</kind><name>{topic}</name><dataType>HelloWorld</dataType></topic></data_writer></dds>"
+        );
+        let reqs = [
+            session.buffer_create_participant_xml(out, p, 0, PARTICIPANT_XML, REPLACE).expect("p"),
+            session.buffer_create_topic_xml(out, t, p, &topic_xml, REPLACE).expect("t"),
+            session.buffer_create_publisher_xml(out, publ, p, "", REPLACE).expect("pub"),
+            session.buffer_create_datawriter_xml(out, dw, publ, &dw_xml, REPLACE).expect("dw"),
+        ];
+        let mut status = [0u8; 4];
+        assert!(session.run_session_until_all_status(3000, &reqs, &mut status).expect("run"), "create: {status:?}");
+        let mut n = 0u32;
+        while !stop.load(Ordering::Relaxed) && n < 600 {
+            n += 1;
+            session.buffer_topic(out, dw, &hello_body(n, "Hello from the Rust XRCE client")).expect("write");
+            session.run_session_time(100).expect("run");
+        }
+        let _ = session.delete_session();
+        n
+    })
+}
+
+#[derive(Default)]
+struct Collect {
+    samples: Vec<(u32, String)>,
+}
+
+impl Callbacks for Collect {
+    fn on_topic(&mut self, _: &mut Outputs<'_, '_>, _: ObjectId, _: u16, _: StreamId, data: &[u8]) {
+        if let Some(s) = hello_decode(data) {
+            println!("xrce client received index={} message={:?}", s.0, s.1);
+            self.samples.push(s);
+        }
+    }
+}
+
+#[test]
+#[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
+fn xrce_client_publishes_to_fastdds_and_cyclone() {
+    let _agent = AgentProcess::start(18_901);
+    let cyc = spawn(python("hello_cyclone.py", &["sub", "60", "10"]));
+    let fdds = spawn(fastdds(&["sub", "60", "10"]));
+    let stop = Arc::new(AtomicBool::new(false));
+    let publisher = xrce_publisher(18_901, "HelloWorldTopic", false, stop.clone());
+    let (ok_c, out_c) = finish(cyc, "cyclone sub");
+    let (ok_f, out_f) = finish(fdds, "fastdds sub");
+    stop.store(true, Ordering::Relaxed);
+    let written = publisher.join().expect("publisher");
+    println!("xrce client wrote {written} samples");
+    assert!(ok_c && out_c.contains("cyclone-py received total 10"), "Cyclone got 10");
+    assert!(out_c.contains("Hello from the Rust XRCE client"));
+    assert!(ok_f && out_f.contains("fastdds received total 10"), "Fast DDS got 10");
+    assert!(out_f.contains("message='Hello from the Rust XRCE client'"));
+}
+
+#[test]
+#[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
+fn fastdds_and_cyclone_publish_to_the_xrce_client() {
+    let _agent = AgentProcess::start(18_902);
+    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", "18902").expect("udp");
+    let mut out_buf = [0u8; BUF];
+    let mut in_buf = [0u8; BUF];
+    let mut session = Session::new(transport, 0xCCCC_DDDD).with_callbacks(Collect::default());
+    session.create_session().expect("session");
+    let out = session.create_output_reliable_stream(&mut out_buf, HISTORY).expect("out stream");
+    let input = session.create_input_reliable_stream(&mut in_buf, HISTORY).expect("in stream");
+    let p = object_id(1, ObjectKind::Participant);
+    let t = object_id(1, ObjectKind::Topic);
+    let sub = object_id(1, ObjectKind::Subscriber);
+    let dr = object_id(1, ObjectKind::DataReader);
+    let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
+    // The peers are reliable KEEP_ALL; so is this reader, so that every sample is kept for the client.
+    let dr_xml =
+        "<dds><data_reader><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name><dataType>HelloWorld</dataType>\
+                  <historyQos><kind>KEEP_ALL</kind></historyQos></topic>\
+                  <qos><reliability><kind>RELIABLE</kind></reliability></qos></data_reader></dds>";
+    let reqs = [
+        session.buffer_create_participant_xml(out, p, 0, PARTICIPANT_XML, REPLACE).expect("p"),
+        session.buffer_create_topic_xml(out, t, p, topic_xml, REPLACE).expect("t"),
+        session.buffer_create_subscriber_xml(out, sub, p, "", REPLACE).expect("sub"),
+        session.buffer_create_datareader_xml(out, dr, sub, dr_xml, REPLACE).expect("dr"),
+    ];
+    let mut status = [0u8; 4];
+    assert!(session.run_session_until_all_status(3000, &reqs, &mut status).expect("run"), "create: {status:?}");
+    let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
+    session.buffer_request_data(out, dr, input, Some(&control)).expect("read");
+    session.run_session_time(100).expect("run");
+    let cyc = spawn(python("hello_cyclone.py", &["pub", "5"]));
+    let fdds = spawn(fastdds(&["pub", "5"]));
+    let t0 = Instant::now();
+    while session.callbacks().samples.len() < 10 && t0.elapsed() < Duration::from_secs(60) {
+        session.run_session_until_data(500).expect("run");
+    }
+    let (ok_c, _) = finish(cyc, "cyclone pub");
+    let (ok_f, _) = finish(fdds, "fastdds pub");
+    let got = std::mem::take(&mut session.callbacks().samples);
+    let _ = session.delete_session();
+    assert!(ok_c && ok_f);
+    let from_cyclone = got.iter().filter(|s| s.1 == "Hello from Cyclone DDS (python)").count();
+    let from_fastdds = got.iter().filter(|s| s.1 == "Hello from Fast DDS 2.9").count();
+    assert_eq!((from_cyclone, from_fastdds), (5, 5), "{got:?}");
+}
+
+#[test]
+#[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
+fn keyed_samples_from_the_xrce_client_are_distinct_instances_for_cyclone() {
+    let _agent = AgentProcess::start(18_903);
+    let cyc = spawn(python("keyed_cyclone.py", &["60", "5"]));
+    let stop = Arc::new(AtomicBool::new(false));
+    let publisher = xrce_publisher(18_903, "HelloWorldKeyedTopic", true, stop.clone());
+    let (_, out) = finish(cyc, "cyclone keyed sub");
+    stop.store(true, Ordering::Relaxed);
+    publisher.join().expect("publisher");
+    assert!(out.contains("received total 5 distinct instances 5"), "five keys, five instances");
+}
