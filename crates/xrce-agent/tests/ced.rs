@@ -275,3 +275,114 @@ fn slow_reliable_reader_holds_the_writer_back_without_loss() {
     let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
     assert_eq!(got, (0..total as u32).collect::<Vec<_>>());
 }
+
+/// Samples waiting when a read starts: packed several per message only for clients that read packed
+/// messages (`pack_data`), one DATA per message otherwise (eProsima's C client reads one DATA per message).
+#[test]
+fn data_is_packed_only_when_the_client_can_read_it() {
+    for (pack, reliable) in [(false, true), (true, true), (false, false), (true, false)] {
+        let config = xrce_agent::core::CoreConfig { pack_data: pack, ..Default::default() };
+        let core = xrce_agent::core::AgentCore::new(
+            config,
+            xrce_agent::middleware::ced::Ced::new(std::sync::Arc::new(
+                xrce_agent::middleware::describe::FallbackProfiles,
+            )),
+        );
+        let mut h = Harness::with_core(core);
+        let (mut p, mut s) = setup_pubsub(&mut h, "packed", "packed");
+        let writer = ObjectId::new(1, ObjectKind::DataWriter);
+        for i in 0..10u32 {
+            h.send(PUB, &p.write(true, writer, &i.to_le_bytes()));
+        }
+        let stream = if reliable { 0x80 } else { 0x01 };
+        h.send(SUB, &s.read(ObjectId::new(1, ObjectKind::DataReader), stream, unlimited()));
+        let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+        assert_eq!(got, (0..10).collect::<Vec<_>>(), "pack {pack} reliable {reliable}");
+        let data_messages: Vec<usize> = h.received[&SUB]
+            .iter()
+            .map(|r| r.subs.iter().filter(|o| matches!(o, Out::Data { .. })).count())
+            .filter(|n| *n > 0)
+            .collect();
+        if pack {
+            assert!(data_messages.len() < 10 && data_messages.iter().sum::<usize>() == 10, "{data_messages:?}");
+            assert!(h.received[&SUB].iter().all(|r| r.raw.len() <= 508));
+        } else {
+            assert_eq!(data_messages, vec![1; 10], "reliable {reliable}");
+        }
+    }
+}
+
+/// A reliable reader whose client went silent (past the 30 s dead time) stops holding its writers back.
+#[test]
+fn a_silent_reliable_reader_stops_holding_writers_after_the_dead_time() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "vanished", "vanished");
+    h.send(SUB, &s.read(ObjectId::new(1, ObjectKind::DataReader), 0x80, unlimited()));
+    h.auto_ack = false;
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    let base = p.seq_rel;
+    let total = 200usize;
+    let msgs: Vec<Vec<u8>> = (0..total as u32).map(|i| p.write(true, writer, &i.to_le_bytes())).collect();
+    let mut sent = 0usize;
+    let run = |h: &mut Harness, sent: &mut usize| -> usize {
+        loop {
+            let acked = publisher_first_unacked(h).map_or(0, |f| usize::from(f.wrapping_sub(base)));
+            if *sent >= total || *sent >= acked + 8 {
+                return acked;
+            }
+            h.send(PUB, &msgs[*sent]);
+            *sent += 1;
+        }
+    };
+    assert!(run(&mut h, &mut sent) < total, "held back while the reader is alive");
+    h.advance(Duration::from_secs(29));
+    assert!(run(&mut h, &mut sent) < total, "still held back within the dead time");
+    h.advance(Duration::from_secs(2));
+    assert!(run(&mut h, &mut sent) >= total, "released once the reader's client is dead");
+}
+
+/// A reliable reader whose client keeps talking but acknowledges nothing stops holding writers back after the
+/// dead time too, and holds them again once it acknowledges.
+#[test]
+fn a_reliable_reader_that_never_acknowledges_stops_holding_writers() {
+    use xrce_proto::{message, ClientKey, MessageHeader, StreamId, Submessage};
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "deaf", "deaf");
+    h.send(SUB, &s.read(ObjectId::new(1, ObjectKind::DataReader), 0x80, unlimited()));
+    h.auto_ack = false;
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    let base = p.seq_rel;
+    let total = 200usize;
+    let msgs: Vec<Vec<u8>> = (0..total as u32).map(|i| p.write(true, writer, &i.to_le_bytes())).collect();
+    let mut sent = 0usize;
+    let run = |h: &mut Harness, sent: &mut usize| -> usize {
+        loop {
+            let acked = publisher_first_unacked(h).map_or(0, |f| usize::from(f.wrapping_sub(base)));
+            if *sent >= total || *sent >= acked + 8 {
+                return acked;
+            }
+            h.send(PUB, &msgs[*sent]);
+            *sent += 1;
+        }
+    };
+    assert!(run(&mut h, &mut sent) < total);
+    // The subscriber stays alive (a ping every second) but never acknowledges its DATA.
+    let ping = {
+        let header = MessageHeader::new(0x81, StreamId::NONE, 0, ClientKey::from_u32(s.key));
+        let get = xrce_proto::submessage::GetInfo { request: Default::default(), info_mask: 0 };
+        let mut buf = [0u8; 64];
+        let n = message::encode_single(&mut buf, &header, &Submessage::GetInfo(get), xrce_proto::Endianness::Little)
+            .unwrap();
+        buf[..n].to_vec()
+    };
+    for _ in 0..29 {
+        h.advance(Duration::from_secs(1));
+        h.send(SUB, &ping);
+    }
+    assert!(run(&mut h, &mut sent) < total, "still held back within the dead time");
+    for _ in 0..3 {
+        h.advance(Duration::from_secs(1));
+        h.send(SUB, &ping);
+    }
+    assert!(run(&mut h, &mut sent) >= total, "released: the reader made no progress for the dead time");
+}

@@ -55,6 +55,9 @@ pub struct CoreConfig {
     pub min_mtu: u16,
     /// Port reported in INFO locators (0: none).
     pub info_port: u16,
+    /// Pack several DATA submessages per message for every client (default false: only for clients that
+    /// set the `xrce_rs_pack` property; eProsima's C client cannot read packed messages).
+    pub pack_data: bool,
 }
 
 impl Default for CoreConfig {
@@ -76,6 +79,7 @@ impl Default for CoreConfig {
             max_mtu: 65_535,
             min_mtu: 24,
             info_port: 0,
+            pack_data: false,
         }
     }
 }

@@ -73,6 +73,12 @@ pub struct AgentCore<E, M> {
     blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
     /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
     acks_due: Vec<(ClientKey, xrce_proto::StreamId)>,
+    /// Set while a read task is pumped: reliable DATA waits to be packed.
+    pumping: bool,
+    /// Messages ever queued for the shell (identifies the newest one).
+    pushes: u64,
+    /// The newest queued message is a best-effort one to this client and stream: more DATA may join it.
+    open_be: Option<(u64, ClientKey, u8)>,
     /// Clients that may have read tasks (cleaned lazily by the pump).
     reading: Vec<ClientKey>,
     /// Reused list of reader ids while pumping.
@@ -111,6 +117,9 @@ where
             pump_needed: false,
             blocked: Vec::new(),
             acks_due: Vec::new(),
+            pumping: false,
+            pushes: 0,
+            open_be: None,
             reading: Vec::new(),
             scratch_ids: Vec::new(),
             wall_anchor: None,
@@ -222,7 +231,11 @@ where
         if !self.acks_due.is_empty() {
             self.flush_acknacks();
         }
-        self.transmits.pop_front()
+        let t = self.transmits.pop_front();
+        if self.transmits.is_empty() {
+            self.open_be = None;
+        }
+        t
     }
 
     /// Gives the buffer of a sent [`Transmit`] back for reuse (optional; saves an allocation per message).
@@ -251,6 +264,7 @@ where
             }
         }
         self.transmits.retain(|t| t.to != endpoint);
+        self.open_be = None;
     }
 
     /// Deletes a client and all its entities.
@@ -268,6 +282,7 @@ where
             self.remove_client(key);
         }
         self.transmits.clear();
+        self.open_be = None;
     }
 
     /// Creates an entity for a client as a CREATE would (library API).
@@ -302,6 +317,7 @@ where
             self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
         }
         self.stats.messages_out = self.stats.messages_out.saturating_add(1);
+        self.pushes = self.pushes.wrapping_add(1);
         self.transmits.push_back(Transmit { to, data });
     }
 
@@ -347,6 +363,7 @@ where
         let mut remove = Vec::new();
         let mut probe = Vec::new();
         let mut beats = Vec::new();
+        let mut unpin = Vec::new();
         let mut again = false;
         for (key, client) in &mut self.clients {
             let silent = now.saturating_duration_since(client.last_heard);
@@ -354,7 +371,18 @@ where
                 remove.push(*key);
                 continue;
             }
-            if client.is_dead(now, dead_time) {
+            // Back-pressure bound: a reader that is dead, or alive but acknowledging nothing for the dead time,
+            // stops holding its writers back.
+            let stalled = client.streams.rel_out.iter_mut().map(|(_, s)| s.stalled_for(now)).max().unwrap_or_default();
+            let dead = client.is_dead(now, dead_time);
+            if client.unpinned.is_none()
+                && (dead || stalled > dead_time)
+                && client.reads.values().any(|t| t.stream.is_reliable())
+            {
+                client.unpinned = Some(if dead { session::Unpinned::Dead } else { session::Unpinned::Stalled });
+                unpin.push(*key);
+            }
+            if dead {
                 if client.hard_liveliness.is_some() {
                     if client.probes >= self.config.max_liveliness_probes {
                         remove.push(*key);
@@ -376,6 +404,9 @@ where
                     again = true;
                 }
             }
+        }
+        for key in unpin {
+            self.pin_readers(key, false);
         }
         for key in remove {
             tracing::info!(client = %key, "client dead, removing");

@@ -78,6 +78,11 @@ where
         let Some(client) = self.clients.get_mut(&key) else { return };
         client.last_heard = now;
         client.probes = 0;
+        if client.unpinned == Some(super::session::Unpinned::Dead) {
+            client.unpinned = None;
+            self.pin_readers(key, true);
+        }
+        let Some(client) = self.clients.get_mut(&key) else { return };
         if header.client_key.is_some() {
             // Keyed sessions: replies follow the client wherever it now sends from.
             client.endpoint = Some(from);
@@ -165,6 +170,22 @@ where
         progress
     }
 
+    /// Tells the middleware whether the reliable readers of a client hold writers back (see
+    /// [`Middleware::can_write`]): not while the client is dead, so a vanished subscriber stalls its
+    /// publishers for the dead time at most.
+    pub(super) fn pin_readers(&mut self, key: ClientKey, pin: bool) {
+        let Some(client) = self.clients.get(&key) else { return };
+        let readers: Vec<ObjectId> =
+            client.reads.iter().filter(|(_, t)| t.stream.is_reliable()).map(|(id, _)| *id).collect();
+        for id in readers {
+            self.middleware.set_reader_reliable(EntityRef::new(key, id), pin);
+        }
+        if !pin {
+            tracing::info!(client = %key, "client dead or not acknowledging: its reliable readers no longer hold writers back");
+            self.pump_needed = true;
+        }
+    }
+
     fn mark_blocked(&mut self, key: ClientKey, stream: StreamId) {
         if !self.blocked.contains(&(key, stream)) {
             self.blocked.push((key, stream));
@@ -226,14 +247,17 @@ where
     }
 
     /// Sends the scheduled ACKNACKs.
+    /// ACKNACKs go ahead of the queued DATA: they are small and let publishers write again sooner.
     pub(super) fn flush_acknacks(&mut self) {
+        let before = self.pushes;
         for (key, stream) in std::mem::take(&mut self.acks_due) {
-            let ack =
-                self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
+            let ack = self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
             if let Some(ack) = ack {
                 self.send_control(key, &Submessage::AckNack(ack));
             }
         }
+        let added = usize::try_from(self.pushes.wrapping_sub(before)).unwrap_or(usize::MAX).min(self.transmits.len());
+        self.transmits.rotate_right(added);
     }
 
     /// CREATE_CLIENT and GET_INFO outside a session (header session id 0x00 or 0x80).
@@ -359,9 +383,11 @@ where
                     return StatusCode::ERR_RESOURCES;
                 }
                 let mut client = ProxyClient::new(key, session_id, mtu, from, now);
+                client.pack_data = self.config.pack_data;
                 if let Some(rep) = rep {
                     client.hard_liveliness = rep.property("uxr_hl").and_then(parse_hard_liveliness);
                     client.shared_memory = rep.property("uxr_sm") == Some("1");
+                    client.pack_data |= rep.property(super::session::PACK_PROPERTY) == Some("1");
                 }
                 if client.hard_liveliness.is_some() {
                     self.arm_heartbeat(now);
@@ -740,15 +766,21 @@ where
     fn handle_acknack(&mut self, key: ClientKey, ack: &xrce_proto::submessage::AckNack) {
         let Some(client) = self.clients.get_mut(&key) else { return };
         let header = client.header(StreamId(ack.stream_id), 0);
-        let to = client.endpoint;
+        let (to, mtu) = (client.endpoint, client.pack_mtu());
         let Some(out) = client.streams.rel_out.get_mut(&ack.stream_id) else { return };
+        let before = out.first_unacked();
         let mut sent = std::mem::take(&mut self.scratch);
         out.on_acknack(ack, &mut self.pool, |m| sent.push(m));
-        out.flush(&header, &mut self.pool, |m| sent.push(m));
+        let progressed = out.first_unacked() != before;
+        let repin = progressed && client.unpinned.take().is_some();
+        out.flush(&header, mtu, &mut self.pool, |m| sent.push(m));
         for m in sent.drain(..) {
             self.push_transmit(to, m);
         }
         self.scratch = sent;
+        if repin {
+            self.pin_readers(key, true);
+        }
         self.pump_needed = true;
     }
 
@@ -779,9 +811,52 @@ where
         }
     }
 
+    /// Sends what is queued on a reliable output stream, as far as its window allows.
+    fn flush_stream(&mut self, key: ClientKey, stream: StreamId) {
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        let header = client.header(stream, 0);
+        let (to, mtu) = (client.endpoint, client.pack_mtu());
+        let Some(out) = client.streams.rel_out.get_mut(&stream.0) else { return };
+        let mut sent = std::mem::take(&mut self.scratch);
+        out.flush(&header, mtu, &mut self.pool, |m| sent.push(m));
+        for m in sent.drain(..) {
+            self.push_transmit(to, m);
+        }
+        self.scratch = sent;
+    }
+
+    /// Delivers the samples one read task may take now. On a reliable stream samples are queued and packed
+    /// several per message (a message's worth at a time) while the window has room.
     fn pump_reader(&mut self, key: ClientKey, reader: ObjectId, now: Instant) {
+        let reliable =
+            self.clients.get(&key).and_then(|c| c.reads.get(&reader)).map(|t| t.stream).filter(|s| s.is_reliable());
+        self.pumping = true;
+        self.pump_reader_inner(key, reader, reliable, now);
+        self.pumping = false;
+        if let Some(stream) = reliable {
+            self.flush_stream(key, stream);
+        }
+    }
+
+    fn pump_reader_inner(&mut self, key: ClientKey, reader: ObjectId, reliable: Option<StreamId>, now: Instant) {
         let entity = EntityRef::new(key, reader);
         for _ in 0..MAX_SAMPLES_PER_PUMP {
+            if let Some(stream) = reliable {
+                let state = self.clients.get(&key).and_then(|c| {
+                    c.streams.rel_out.get(&stream.0).map(|s| s.pending_bytes() >= c.pack_mtu() && s.has_window_room())
+                });
+                if state == Some(true) {
+                    self.flush_stream(key, stream);
+                }
+                let can_take = self
+                    .clients
+                    .get(&key)
+                    .and_then(|c| c.streams.rel_out.get(&stream.0).map(|s| s.can_take(c.pack_mtu())))
+                    .unwrap_or(true);
+                if !can_take {
+                    return;
+                }
+            }
             let Some(client) = self.clients.get_mut(&key) else { return };
             let Some(task) = client.reads.get_mut(&reader) else { return };
             if task.finished(now) {
@@ -791,9 +866,6 @@ where
             }
             task.expire_timers(now);
             let stream = task.stream;
-            if stream.is_reliable() && client.streams.rel_out.get(&stream.0).is_some_and(|s| !s.is_idle()) {
-                return;
-            }
             let Some(size) = self.middleware.next_sample_size(entity) else { return };
             if task.ready(size, now).is_err() {
                 return;
@@ -865,6 +937,7 @@ where
         let header = client.header(stream, 0);
         let header_len = header.size();
         let fits = header_len + sub.len() <= client.mtu;
+        let pack_mtu = client.pack_mtu();
         let is_new = match stream.kind() {
             StreamKind::None => false,
             StreamKind::BestEffort => !client.streams.be_out.contains_key(&stream.0),
@@ -881,6 +954,23 @@ where
                     self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
                     return;
                 }
+                // A DATA on a best-effort stream joins the previous message to the same client and stream if
+                // that one is still queued and has room: one datagram for several samples.
+                let mtu = client.mtu;
+                let pack = client.pack_data;
+                if pack && stream.kind() == StreamKind::BestEffort && self.open_be == Some((self.pushes, key, stream.0))
+                {
+                    if let Some(last) = self.transmits.back_mut() {
+                        let pad = (4 - last.data.len() % 4) % 4;
+                        if last.data.len() + pad + sub.len() <= mtu {
+                            last.data.resize(last.data.len() + pad, 0);
+                            last.data.extend_from_slice(&sub);
+                            self.pool.put(sub);
+                            return;
+                        }
+                    }
+                }
+                let Some(client) = self.clients.get_mut(&key) else { return };
                 let seq = if stream.kind() == StreamKind::None {
                     0
                 } else {
@@ -894,6 +984,9 @@ where
                 msg.extend_from_slice(&sub);
                 self.pool.put(sub);
                 self.push_transmit(to, msg);
+                if stream.kind() == StreamKind::BestEffort {
+                    self.open_be = Some((self.pushes, key, stream.0));
+                }
             }
             StreamKind::Reliable => {
                 let out = client.streams.rel_out.get_or_insert_with(stream.0, || ReliableOut::new(window, max_pending));
@@ -903,12 +996,15 @@ where
                     self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
                     return;
                 }
-                let mut sent = std::mem::take(&mut self.scratch);
-                out.flush(&header, &mut self.pool, |m| sent.push(m));
-                for m in sent.drain(..) {
-                    self.push_transmit(to, m);
+                // While pumping, samples wait to be packed into one message (see `pump_reader`).
+                if !self.pumping {
+                    let mut sent = std::mem::take(&mut self.scratch);
+                    out.flush(&header, pack_mtu, &mut self.pool, |m| sent.push(m));
+                    for m in sent.drain(..) {
+                        self.push_transmit(to, m);
+                    }
+                    self.scratch = sent;
                 }
-                self.scratch = sent;
                 if let Some(now) = now {
                     self.arm_heartbeat(now);
                 }

@@ -61,7 +61,28 @@ pub struct ProxyClient<E> {
     pub probes: u8,
     /// Whether it asked for the shared-memory shortcut (`uxr_sm`); kept for the DDS middleware.
     pub shared_memory: bool,
+    /// Several DATA submessages may share one message ([`PACK_PROPERTY`], or
+    /// [`CoreConfig::pack_data`](super::CoreConfig::pack_data)). Off for eProsima's C client, which does not
+    /// skip a DATA payload and so cannot read a second submessage after one.
+    pub pack_data: bool,
+    /// Its reliable readers stopped holding writers back (see [`Unpinned`]).
+    pub unpinned: Option<Unpinned>,
 }
+
+/// Why a client's reliable readers no longer hold writers back (back-pressure, see
+/// [`Middleware::can_write`](crate::middleware::Middleware::can_write)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unpinned {
+    /// Silent past its dead time; pinned again when heard from.
+    Dead,
+    /// Its reliable output made no progress for the dead time (it does not acknowledge); pinned again when
+    /// an ACKNACK acknowledges something.
+    Stalled,
+}
+
+/// CREATE_CLIENT property a client sets to `1` when it reads every submessage of a message (eProsima's C
+/// client does not after a DATA): the agent then packs several samples per message.
+pub const PACK_PROPERTY: &str = "xrce_rs_pack";
 
 impl<E: Copy> ProxyClient<E> {
     /// A fresh client.
@@ -78,12 +99,24 @@ impl<E: Copy> ProxyClient<E> {
             hard_liveliness: None,
             probes: 0,
             shared_memory: false,
+            pack_data: false,
+            unpinned: None,
         }
     }
 
     /// Header of a message to this client on `stream` with `seq`.
     pub fn header(&self, stream: StreamId, seq: u16) -> MessageHeader {
         MessageHeader::new(self.session_id, stream, seq, self.key)
+    }
+
+    /// Largest message several submessages may be packed into: the MTU, or 0 (one submessage per message)
+    /// unless the client reads packed messages.
+    pub fn pack_mtu(&self) -> usize {
+        if self.pack_data {
+            self.mtu
+        } else {
+            0
+        }
     }
 
     /// Its dead time.

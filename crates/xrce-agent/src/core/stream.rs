@@ -276,7 +276,11 @@ pub struct ReliableOut {
     in_flight: VecDeque<Vec<u8>>,
     /// Message bodies (submessages without header) waiting for room in the window.
     pending: VecDeque<Vec<u8>>,
+    /// Bytes in `pending`.
+    pending_bytes: usize,
     max_pending: usize,
+    /// `first_unacked` when last checked with unacknowledged messages, and since when it has not moved.
+    watch: Option<(u16, std::time::Instant)>,
 }
 
 impl ReliableOut {
@@ -288,7 +292,9 @@ impl ReliableOut {
             window: window.clamp(1, 16),
             in_flight: VecDeque::new(),
             pending: VecDeque::new(),
+            pending_bytes: 0,
             max_pending,
+            watch: None,
         }
     }
 
@@ -299,7 +305,23 @@ impl ReliableOut {
 
     /// Whether nothing waits behind the window (the time to take another sample for it).
     pub fn is_idle(&self) -> bool {
-        self.pending.is_empty() && self.in_flight.len() < usize::from(self.window)
+        self.pending.is_empty() && self.has_window_room()
+    }
+
+    /// Whether another message may go in flight.
+    pub fn has_window_room(&self) -> bool {
+        self.in_flight.len() < usize::from(self.window)
+    }
+
+    /// Bytes queued behind the window.
+    pub fn pending_bytes(&self) -> usize {
+        self.pending_bytes
+    }
+
+    /// Whether another sample may be queued: the window has room and less than a message of `mtu` bytes
+    /// waits (what waits is packed into one message by [`Self::flush`]).
+    pub fn can_take(&self, mtu: usize) -> bool {
+        self.has_window_room() && (self.pending.is_empty() || self.pending_bytes < mtu)
     }
 
     /// Frees the buffers of an idle stream (nothing in flight or queued), so idle sessions cost little.
@@ -322,6 +344,7 @@ impl ReliableOut {
         if self.room() == 0 {
             return false;
         }
+        self.pending_bytes += body.len();
         self.pending.push_back(body);
         true
     }
@@ -331,23 +354,39 @@ impl ReliableOut {
         if bodies.len() > self.room() {
             return false;
         }
+        self.pending_bytes += bodies.iter().map(Vec::len).sum::<usize>();
         self.pending.extend(bodies);
         true
     }
 
     /// Moves queued bodies into the window, stamping `header` with their sequence numbers; `send` gets
-    /// each complete message.
-    pub fn flush(&mut self, header: &MessageHeader, pool: &mut BufPool, mut send: impl FnMut(Vec<u8>)) {
+    /// each complete message. Consecutive bodies that are not FRAGMENTs share a message up to `mtu` bytes
+    /// (each submessage 4-aligned, as every client reads them); a FRAGMENT always travels alone (spec §9.6).
+    pub fn flush(&mut self, header: &MessageHeader, mtu: usize, pool: &mut BufPool, mut send: impl FnMut(Vec<u8>)) {
         while self.in_flight.len() < usize::from(self.window) {
             let Some(body) = self.pending.pop_front() else { break };
+            self.pending_bytes = self.pending_bytes.saturating_sub(body.len());
             let h = MessageHeader { sequence_nr: self.next_seq, ..*header };
             let mut msg = pool.get();
             msg.resize(h.size(), 0);
             if h.encode(&mut msg).is_err() {
                 continue;
             }
+            let packable = |b: &[u8]| b.first() != Some(&id::FRAGMENT);
+            let pack = packable(&body);
             msg.extend_from_slice(&body);
             pool.put(body);
+            while let Some(next) = self.pending.front() {
+                let pad = (4 - msg.len() % 4) % 4;
+                if !pack || !packable(next) || msg.len() + pad + next.len() > mtu {
+                    break;
+                }
+                let Some(next) = self.pending.pop_front() else { break };
+                self.pending_bytes = self.pending_bytes.saturating_sub(next.len());
+                msg.resize(msg.len() + pad, 0);
+                msg.extend_from_slice(&next);
+                pool.put(next);
+            }
             self.next_seq = self.next_seq.wrapping_add(1);
             send(pool.copy_of(&msg));
             self.in_flight.push_back(msg);
@@ -376,6 +415,27 @@ impl ReliableOut {
             }
             if let Some(msg) = self.in_flight.get(usize::from(seq.wrapping_sub(self.first_unacked))) {
                 send(pool.copy_of(msg));
+            }
+        }
+    }
+
+    /// First unacknowledged sequence number.
+    pub fn first_unacked(&self) -> u16 {
+        self.first_unacked
+    }
+
+    /// How long messages have been in flight without any being acknowledged (zero when none are), as seen
+    /// by successive calls.
+    pub fn stalled_for(&mut self, now: std::time::Instant) -> std::time::Duration {
+        if !self.has_unacked() {
+            self.watch = None;
+            return std::time::Duration::ZERO;
+        }
+        match self.watch {
+            Some((first, since)) if first == self.first_unacked => now.saturating_duration_since(since),
+            _ => {
+                self.watch = Some((self.first_unacked, now));
+                std::time::Duration::ZERO
             }
         }
     }
@@ -448,7 +508,7 @@ mod tests {
         assert!(out.queue((0..20u8).map(|i| vec![i]).collect()));
         let mut sent = Vec::new();
         let mut pool = BufPool::default();
-        out.flush(&header, &mut pool, |m| sent.push(m));
+        out.flush(&header, 5, &mut pool, |m| sent.push(m));
         assert_eq!(sent.len(), 16);
         assert_eq!(out.heartbeat(0x80).map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((0, 15)));
         sent.clear();
@@ -456,7 +516,7 @@ mod tests {
         out.on_acknack(&ack, &mut pool, |m| sent.push(m));
         assert_eq!(sent, vec![vec![0x81, 0x80, 4, 0, 4]]);
         sent.clear();
-        out.flush(&header, &mut pool, |m| sent.push(m));
+        out.flush(&header, 5, &mut pool, |m| sent.push(m));
         assert_eq!(sent.len(), 4);
     }
 

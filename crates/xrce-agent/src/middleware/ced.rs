@@ -13,6 +13,9 @@
 //! samples being lost. Best-effort readers never pin (oldest samples are dropped). A single message may carry
 //! many writes and is always processed whole: the ring then grows up to [`MAX_BACKLOG`] samples, beyond which
 //! the oldest sample is dropped even for a pinning reader (logged and counted, see [`Ced::forced_drops`]).
+//! The core unpins the readers of a client silent past its dead time (30 s by default), or whose reliable
+//! output has acknowledged nothing for that long, so a vanished or misbehaving subscriber stalls its
+//! publishers for that long at most (it pins again once it acknowledges).
 //!
 //! Unlike eProsima's CED, entities described in XML or by a profile reference work: their names come from
 //! the [`ProfileSource`].
@@ -119,6 +122,9 @@ pub struct Ced {
     topics: HashMap<TopicKey, Ring<Arc<[u8]>>>,
     services: HashMap<TopicKey, Ring<PendingRequest>>,
     entities: HashMap<EntityRef, Entity>,
+    /// Entities per client, so deleting a client whose entities are already gone (the usual case: the core
+    /// deletes them one by one first) does not scan the whole registry.
+    owned: HashMap<ClientKey, u32>,
     forced_drops: u64,
 }
 
@@ -169,6 +175,7 @@ impl Ced {
             topics: HashMap::new(),
             services: HashMap::new(),
             entities: HashMap::new(),
+            owned: HashMap::new(),
             forced_drops: 0,
         }
     }
@@ -340,8 +347,9 @@ impl Middleware for Ced {
             }
             Entity::Participant { .. } | Entity::Group { .. } => {}
         }
-        if let Some(old) = self.entities.insert(creation.entity, built) {
-            self.release(old);
+        match self.entities.insert(creation.entity, built) {
+            Some(old) => self.release(old),
+            None => *self.owned.entry(creation.entity.client).or_default() += 1,
         }
         Ok(())
     }
@@ -364,15 +372,20 @@ impl Middleware for Ced {
         self.unpin(entity);
         let old =
             self.entities.remove(&entity).ok_or_else(|| MiddlewareError::UnknownReference(format!("{entity:?}")))?;
+        self.disown(entity.client);
         self.release(old);
         Ok(())
     }
 
     fn delete_client(&mut self, client: ClientKey) {
+        if !self.owned.contains_key(&client) {
+            return;
+        }
         let mine: Vec<EntityRef> = self.entities.keys().filter(|e| e.client == client).copied().collect();
         for e in mine {
             self.unpin(e);
             if let Some(old) = self.entities.remove(&e) {
+                self.disown(client);
                 self.release(old);
             }
         }
@@ -505,6 +518,15 @@ impl Middleware for Ced {
 }
 
 impl Ced {
+    fn disown(&mut self, client: ClientKey) {
+        if let Some(n) = self.owned.get_mut(&client) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                self.owned.remove(&client);
+            }
+        }
+    }
+
     fn release(&mut self, old: Entity) {
         match old {
             Entity::Topic { key, .. } | Entity::Writer { key } | Entity::Reader { key, .. } => {
