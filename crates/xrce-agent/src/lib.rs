@@ -10,6 +10,7 @@ pub mod agent;
 pub mod cli;
 pub mod core;
 pub mod logging;
+pub mod main_cli;
 pub mod middleware;
 pub mod profile;
 pub mod transport;
