@@ -30,6 +30,7 @@ pub use bridge::{
 pub use error::DdsError;
 pub use qos::{
     Durability, EndpointQos, History, Reliability, ResourceLimits, DEFAULT_KEEP_ALL_SAMPLES, MIN_KEEP_LAST_SAMPLES,
+    MIN_RELIABLE_QUEUE,
 };
 pub use reader::{QueueWaker, ReceivedSample, SampleIdentity, SampleQueue};
 pub use service::{Replier, Requester, ServiceDescription, MAX_PENDING_REQUESTS};

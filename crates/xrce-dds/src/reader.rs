@@ -6,9 +6,16 @@
 //! to tens of samples/s with 100k queued) and appends it to the reader's bounded [`SampleQueue`], then calls
 //! the queue's waker. The agent drains queues from its own thread whenever it is woken; it never spins.
 //!
-//! Back-pressure: a queue holds at most its capacity (the reader's history depth, or its resource limit
-//! for KEEP_ALL). When it is full the dispatcher stops taking from that reader, so samples stay in RustDDS
-//! (bounded by its resource limits); once the agent has drained half the queue, the dispatcher resumes.
+//! Back-pressure: a queue holds at most its capacity (see [`EndpointQos::queue_capacity`]). When it is full
+//! the dispatcher stops taking from that reader, so samples stay in RustDDS; once the agent has drained
+//! half the queue, the dispatcher resumes. RustDDS' topic cache evicts its oldest samples past its resource
+//! limit *whether or not they were taken*, and a RustDDS reliable reader acknowledges a sample as soon as
+//! it is in that cache, so a stalled queue loses samples after all. The agent therefore holds local
+//! writers back itself: each queue records, per writer GUID, the last sequence number it received
+//! ([`SampleQueue::progress_from`]), from which the agent knows how many samples of its own writer are
+//! still in flight towards a queue (see the agent's DDS middleware, `can_write`).
+//!
+//! [`EndpointQos::queue_capacity`]: crate::EndpointQos::queue_capacity
 
 use std::collections::{HashMap, VecDeque};
 use std::io;
@@ -95,7 +102,14 @@ struct QueueState {
     waker: Option<QueueWaker>,
     /// Samples queued since creation (statistics, tests).
     received: u64,
+    /// Per writer GUID: the highest sequence number taken from RustDDS and when it was taken.
+    progress: HashMap<[u8; 16], (i64, Instant)>,
 }
+
+/// Writers whose progress a queue remembers; past it, entries not updated for [`PROGRESS_FORGET`] go.
+const PROGRESS_ENTRIES: usize = 1024;
+/// Age past which a writer's progress entry may be forgotten (see [`PROGRESS_ENTRIES`]).
+const PROGRESS_FORGET: Duration = Duration::from_secs(60);
 
 struct QueueShared {
     state: Mutex<QueueState>,
@@ -144,6 +158,19 @@ impl SampleQueue {
     /// Samples queued since the reader was created.
     pub fn received(&self) -> u64 {
         self.shared.lock().received
+    }
+
+    /// The highest sequence number of writer `writer_guid` that reached this queue (taken from RustDDS,
+    /// whether or not the agent has popped it yet; requester filters included) and when it arrived.
+    /// `None` before the first sample of that writer.
+    pub fn progress_from(&self, writer_guid: &[u8; 16]) -> Option<(i64, Instant)> {
+        self.shared.lock().progress.get(writer_guid).copied()
+    }
+
+    /// Samples waiting and the progress of `writer_guid` ([`SampleQueue::progress_from`]), read at once.
+    pub fn backlog_of(&self, writer_guid: &[u8; 16]) -> (usize, Option<(i64, Instant)>) {
+        let st = self.shared.lock();
+        (st.samples.len(), st.progress.get(writer_guid).copied())
     }
 
     /// Length of the body of the next sample, without taking it (the agent checks it against its
@@ -345,7 +372,13 @@ impl Dispatcher {
     ) -> Result<(SampleQueue, Token), DdsError> {
         let token = Token(self.control.next_token.fetch_add(1, Ordering::Relaxed));
         let shared = Arc::new(QueueShared {
-            state: Mutex::new(QueueState { samples: VecDeque::new(), paused: false, waker: None, received: 0 }),
+            state: Mutex::new(QueueState {
+                samples: VecDeque::new(),
+                paused: false,
+                waker: None,
+                received: 0,
+                progress: HashMap::new(),
+            }),
             cond: Condvar::new(),
             capacity: capacity.max(1),
             token,
@@ -449,9 +482,17 @@ fn drain(entry: &mut Entry, batch: &mut Vec<ReceivedSample>) {
             return;
         }
         let took = batch.len();
+        let now = Instant::now();
         let waker = {
             let mut st = entry.queue.lock();
             let was_empty = st.samples.is_empty();
+            for s in batch.iter() {
+                let p = st.progress.entry(s.identity.writer_guid).or_insert((s.identity.sequence_number, now));
+                *p = (p.0.max(s.identity.sequence_number), now);
+            }
+            if st.progress.len() > PROGRESS_ENTRIES {
+                st.progress.retain(|_, (_, at)| now.duration_since(*at) < PROGRESS_FORGET);
+            }
             for s in batch.drain(..) {
                 let s = match entry.filter.as_mut() {
                     Some(f) => match f(s) {
