@@ -16,7 +16,9 @@ use crate::BenchError;
 /// Largest datagram the driver accepts.
 pub const RX_SIZE: usize = 65_536;
 
-/// A UDP socket connected to the agent that switches between non-blocking and timed reads only when needed.
+/// A UDP socket connected to the agent. It stays in blocking mode with a receive timeout (re-armed only when
+/// the wait changes); a read that must not wait uses `MSG_DONTWAIT` on Linux, so polling costs one system call
+/// (elsewhere the socket switches between non-blocking and timed reads only when needed).
 #[derive(Debug)]
 pub struct Sock {
     socket: UdpSocket,
@@ -60,6 +62,21 @@ impl Sock {
     }
 
     /// A datagram if one is queued, without waiting.
+    #[cfg(target_os = "linux")]
+    pub fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<Option<usize>> {
+        use nix::sys::socket::{recv, MsgFlags};
+        use std::os::fd::AsRawFd;
+        loop {
+            match recv(self.socket.as_raw_fd(), buf, MsgFlags::MSG_DONTWAIT) {
+                Ok(n) => return Ok(Some(n)),
+                Err(nix::errno::Errno::EINTR) => {}
+                Err(e) => return recv_result(Err(io::Error::from(e))),
+            }
+        }
+    }
+
+    /// A datagram if one is queued, without waiting.
+    #[cfg(not(target_os = "linux"))]
     pub fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<Option<usize>> {
         self.set_nonblocking(true)?;
         recv_result(self.socket.recv(buf))

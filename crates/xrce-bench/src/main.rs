@@ -100,6 +100,10 @@ struct ThroughputArgs {
     /// Most samples in flight ahead of the slowest subscriber (default: no limit).
     #[arg(long)]
     window: Option<u64>,
+    /// Subscribers do not ask the agent to pack several DATA per message (CREATE_CLIENT property
+    /// `xrce_rs_pack`, honoured by our agent only, ignored by others).
+    #[arg(long)]
+    no_pack: bool,
     /// Repetitions of each configuration (the median run by received/s is marked).
     #[arg(long, default_value_t = 1)]
     runs: usize,
@@ -326,6 +330,7 @@ fn throughput_cmd(a: &ThroughputArgs) -> Result<(), BenchError> {
             cfg.agent_pid = a.agent_pid;
             cfg.rate = a.rate;
             cfg.window = a.window;
+            cfg.pack = !a.no_pack;
             let pb = bar(a.duration >= Duration::from_secs(2), format!("{} {payload} B run {}", cfg.mode(), run + 1));
             let r = throughput::run(&cfg, &set(&pb));
             pb.finish_and_clear();

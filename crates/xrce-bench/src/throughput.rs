@@ -45,6 +45,9 @@ pub struct ThroughputConfig {
     /// Most samples written but not yet received by the slowest subscriber (`None`: no limit). Keeps the
     /// subscribers up with the publishers, e.g. so an agent's bounded topic history never overflows.
     pub window: Option<u64>,
+    /// Subscribers ask the agent to pack several DATA per message (CREATE_CLIENT property `xrce_rs_pack`;
+    /// honoured by our agent, ignored by eProsima's).
+    pub pack: bool,
     /// Run id: keys and the topic name derive from it.
     pub run: u32,
 }
@@ -65,6 +68,7 @@ impl ThroughputConfig {
             agent_pid: None,
             rate: None,
             window: None,
+            pack: true,
             run: crate::run_id(),
         }
     }
@@ -120,6 +124,8 @@ pub struct ThroughputResult {
     pub datagrams_out: u64,
     /// Datagrams the subscribers received.
     pub datagrams_in: u64,
+    /// Datagrams the subscribers sent (mostly ACKNACKs).
+    pub sub_datagrams_out: u64,
     /// The agent's CPU and memory over the publishing time.
     pub agent: Option<AgentUsage>,
 }
@@ -165,6 +171,7 @@ struct SubResult {
     out_of_order: u64,
     last_rx: Option<Instant>,
     datagrams: u64,
+    datagrams_out: u64,
 }
 
 #[derive(Debug, Default)]
@@ -189,6 +196,7 @@ fn setup_subscriber<'a>(
     let key = client_key(cfg.run, 0x1000 + u32::try_from(index).unwrap_or(0));
     let mut c = Client::new(cfg.agent, key, cfg.mtu)?;
     c.sock().set_recv_buffer(8 << 20)?;
+    c.core.set_packed_input(cfg.pack);
     c.create_session(5)?;
     let out = c.core.create_output_reliable_stream(out_buf, 4)?;
     let in_rel = c.core.create_input_reliable_stream(in_buf, sub_history)?;
@@ -235,6 +243,7 @@ fn subscriber(
         out_of_order: t.out_of_order,
         last_rx: t.last_rx,
         datagrams: c.datagrams_received,
+        datagrams_out: c.datagrams_sent,
     };
     let _ = c.delete_session(Duration::from_millis(300));
     Ok(result)
@@ -379,9 +388,11 @@ fn publisher(
             r.sent += 1;
             shared.total_sent.fetch_add(1, Ordering::Relaxed);
             seq = seq.wrapping_add(1);
-            // One sample per datagram; then whatever acknowledgements already arrived.
+            // One sample per datagram. Acknowledgements are read when the history is full (the WouldBlock
+            // arm waits for the next one, or takes those already queued at once): ACKNACKs are cumulative,
+            // so reading them late loses nothing, and a read per sample would mostly find the socket empty.
             c.flush()?;
-            if cfg.reliable || r.sent % 256 == 0 {
+            if r.sent % 256 == 0 {
                 c.poll(&mut h, None)?;
             }
             if index == 0 && r.sent % 1024 == 0 {
@@ -541,6 +552,7 @@ pub fn run(cfg: &ThroughputConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result
             would_block: pub_results.iter().map(|r| r.would_block).sum(),
             datagrams_out: pub_results.iter().map(|r| r.datagrams).sum(),
             datagrams_in: sub_results.iter().map(|r| r.datagrams).sum(),
+            sub_datagrams_out: sub_results.iter().map(|r| r.datagrams_out).sum(),
             agent,
         })
     })

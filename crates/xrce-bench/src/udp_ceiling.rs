@@ -68,7 +68,7 @@ pub fn run(cfg: &CeilingConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<Ce
                 match recv_result(receiver.recv(&mut buf))? {
                     Some(_) => {
                         n += 1;
-                        if n % 1024 == 0 {
+                        if n.is_multiple_of(1024) {
                             received.store(n, Ordering::Relaxed);
                         }
                     }

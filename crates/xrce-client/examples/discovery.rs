@@ -11,7 +11,7 @@ const MAX_AGENTS: usize = 10;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let help = args.first().is_some_and(|a| a == "-h" || a == "--help");
-    if help || args.len() % 2 != 0 || args.len() > 2 * MAX_AGENTS {
+    if help || !args.len().is_multiple_of(2) || args.len() > 2 * MAX_AGENTS {
         println!("usage: program [ -h | --help | [<ip> <port> ...] ]");
         return Ok(());
     }

@@ -55,7 +55,7 @@ fn expected() -> Vec<u8> {
     v.extend(2001u32.to_le_bytes());
     v.extend(std::iter::repeat_n(b'x', 2000));
     v.push(0);
-    while v.len() % 4 != 0 {
+    while !v.len().is_multiple_of(4) {
         v.push(0);
     }
     v.extend(900u32.to_le_bytes());

@@ -91,7 +91,7 @@ impl Link {
 
 fn sample(index: u32) -> Vec<u8> {
     // Every 7th sample is larger than a slot, so it travels fragmented.
-    let len = if index % 7 == 0 { 300 } else { 12 };
+    let len = if index.is_multiple_of(7) { 300 } else { 12 };
     let mut v = index.to_le_bytes().to_vec();
     v.extend((0..len).map(|i| (index as usize * 31 + i) as u8));
     v

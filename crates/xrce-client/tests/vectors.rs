@@ -82,6 +82,31 @@ fn refused_session_reports_the_status() {
 }
 
 #[test]
+fn packed_input_sends_the_pack_property_in_create_client() {
+    let mut core = Core::new(0x81, KEY, 512);
+    core.set_packed_input(true);
+    core.create_session(T0);
+    let sent = drain(&mut core, T0);
+    assert_eq!(sent.len(), 1);
+    let msg = &sent[0];
+    let (_, start) = xrce_proto::MessageHeader::decode(msg).unwrap();
+    let sub = xrce_proto::Submessages::new(msg, start).next().unwrap().unwrap().decode().unwrap();
+    let xrce_proto::Submessage::CreateClient(rep) = sub else { panic!("not a CREATE_CLIENT: {sub:?}") };
+    assert_eq!(rep.property(xrce_client::session::PACK_PROPERTY), Some("1"));
+    assert_eq!(rep.mtu, 508);
+    // Seen by eProsima's agent v3.0.1 (which ignores the property): …name "xrce_rs_pack", value "1", mtu.
+    assert!(msg.ends_with(&hex("78 72 63 65 5F 72 73 5F 70 61 63 6B 00 00 00 00 02 00 00 00 31 00 FC 01")));
+    // Without it the message is the C client's (§17.1).
+    let mut plain = Core::new(0x81, KEY, 512);
+    plain.create_session(T0);
+    assert!(!plain.packed_input());
+    assert_eq!(
+        drain(&mut plain, T0),
+        vec![hex("80 00 00 00 00 01 10 00 58 52 43 45 01 00 01 0F AA BB CC DD 81 00 FC 01")]
+    );
+}
+
+#[test]
 fn key_in_header_17_3() {
     let mut core = Core::new(0x01, KEY, 512);
     core.create_session(T0);

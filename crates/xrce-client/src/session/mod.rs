@@ -19,7 +19,7 @@ use crate::error::{Error, Result};
 use crate::stream::input_reliable_ready as ready;
 use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
 use outputs::FIRST_REQUEST_ID;
-use xrce_proto::cdr::Endianness;
+use xrce_proto::cdr::{Endianness, Seq};
 use xrce_proto::message::{encode_single, Submessages};
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{info_mask, AckNack, ActivityInfo, DataFormat, GetInfo, Heartbeat, Info};
@@ -38,6 +38,12 @@ pub const SESSION_CONNECTION_INTERVAL_MS: i64 = 1000;
 pub const DEFAULT_SESSION_ID: u8 = 0x81;
 /// Default MTU of every C client transport but CAN.
 pub const DEFAULT_MTU: usize = 512;
+
+/// CREATE_CLIENT property asking our agent to pack several DATA per message (see
+/// [`SessionCore::set_packed_input`]).
+pub const PACK_PROPERTY: &str = "xrce_rs_pack";
+
+const PACK_PROPERTIES: [xrce_proto::Property<'static>; 1] = [xrce_proto::Property { name: PACK_PROPERTY, value: "1" }];
 
 /// What the agent said, delivered while input is processed. Every method has a do-nothing default; `out`
 /// lets a callback write into the output streams (a replier answering from `on_request`, say).
@@ -233,6 +239,7 @@ struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     synced: bool,
     time_offset: i64,
     info_reply: Option<BaseObjectRequest>,
+    packed_input: bool,
 }
 
 impl<'a, const OBE: usize, const ORE: usize, const IBE: usize> State<'a, OBE, ORE, IBE> {
@@ -281,6 +288,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 synced: false,
                 time_offset: 0,
                 info_reply: None,
+                packed_input: false,
             },
             in_rel: [const { None }; IRE],
         }
@@ -385,6 +393,21 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// Whether every reliable output stream had all its messages acknowledged.
     pub fn output_streams_confirmed(&self) -> bool {
         self.st.out_rel.iter().flatten().all(OutputReliable::confirmed)
+    }
+
+    /// Asks the agent, in the next CREATE_CLIENT, to pack several DATA submessages into one message when it
+    /// can (property `xrce_rs_pack = "1"`): fewer datagrams towards this client. Only our agent honours it;
+    /// eProsima's agent looks up the properties it knows (`uxr_sm`, `uxr_hl`) by name and ignores others, and
+    /// the message format is unchanged (one message carries several submessages, as the protocol allows).
+    /// This client always reads packed messages; the property only says so. Off by default, like the C client
+    /// (which sends no properties). Takes effect at the next [`create_session`](Self::create_session).
+    pub fn set_packed_input(&mut self, on: bool) {
+        self.st.packed_input = on;
+    }
+
+    /// Whether [`set_packed_input`](Self::set_packed_input) is on.
+    pub const fn packed_input(&self) -> bool {
+        self.st.packed_input
     }
 
     // ---- session life ----------------------------------------------------------------------------------
@@ -524,7 +547,10 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 (SessionState::Creating, Some(true)) => {
                     let header = MessageHeader::new(st.session_id & 0x80, StreamId::NONE, 0, st.key);
                     let mtu = u16::try_from(st.mtu.saturating_sub(4)).unwrap_or(u16::MAX);
-                    let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                    let mut rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                    if st.packed_input {
+                        rep.properties = Some(Seq::Items(&PACK_PROPERTIES));
+                    }
                     return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
                 }
                 (SessionState::Deleting, Some(true)) => {

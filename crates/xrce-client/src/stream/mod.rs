@@ -57,7 +57,7 @@ pub(crate) const fn align4(n: usize) -> usize {
 /// Checks the history rules of the C API: a power of two that divides the buffer, each slot big enough to
 /// hold a header, a submessage header and some data. Returns the slot size.
 pub(crate) fn slot_size(buffer_len: usize, history: usize) -> Option<usize> {
-    if history == 0 || !history.is_power_of_two() || history > 0x4000 || buffer_len % history != 0 {
+    if history == 0 || !history.is_power_of_two() || history > 0x4000 || !buffer_len.is_multiple_of(history) {
         return None;
     }
     let slot = buffer_len / history;
