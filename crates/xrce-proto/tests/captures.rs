@@ -130,47 +130,88 @@ fn check_message(name: &str, number: u32, msg: &[u8]) -> (usize, Option<(Message
     (count, fragment)
 }
 
-#[test]
-fn every_capture_decodes_and_reencodes() {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(captures_dir())
-        .expect("captures folder")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "txt") && !p.to_string_lossy().contains("hexdump"))
-        .collect();
-    files.sort();
-    assert!(files.len() >= 14, "expected the capture set, found {}", files.len());
-    let (mut total_messages, mut total_subs, mut total_inner) = (0, 0, 0);
-    for path in &files {
-        let name = path.file_name().expect("name").to_string_lossy().into_owned();
-        let (tcp, packets) = read_capture(path);
-        let messages = if tcp { tcp_messages(packets) } else { packets };
-        assert!(!messages.is_empty(), "{name}: no messages");
-        // Reassembly buffers per (direction, client, stream).
-        let mut reassembly: BTreeMap<(bool, u16, u8), (MessageHeader, Vec<u8>)> = BTreeMap::new();
-        let mut inner = 0;
-        for m in &messages {
-            let (subs, fragment) = check_message(&name, m.number, &m.bytes);
-            total_subs += subs;
-            if let Some((header, last, data)) = fragment {
-                let key = (m.to_agent, m.client_port, header.stream_id.0);
-                let entry = reassembly.entry(key).or_insert_with(|| (header, Vec::new()));
-                entry.1.extend_from_slice(&data);
-                if last {
-                    let (header, body) = reassembly.remove(&key).expect("entry");
-                    let mut whole = vec![0u8; header.size()];
-                    header.encode(&mut whole).expect("header");
-                    whole.extend_from_slice(&body);
-                    total_subs += check_message(&name, m.number, &whole).0;
-                    inner += 1;
-                }
+/// Checks one capture file; returns (messages, submessages, messages reassembled from fragments).
+fn check_file(name: &str) -> (usize, usize, usize) {
+    let path = captures_dir().join(name);
+    let (tcp, packets) = read_capture(&path);
+    let messages = if tcp { tcp_messages(packets) } else { packets };
+    assert!(!messages.is_empty(), "{name}: no messages");
+    // Reassembly buffers per (direction, client, stream).
+    let mut reassembly: BTreeMap<(bool, u16, u8), (MessageHeader, Vec<u8>)> = BTreeMap::new();
+    let (mut subs_total, mut inner) = (0, 0);
+    for m in &messages {
+        let (subs, fragment) = check_message(name, m.number, &m.bytes);
+        subs_total += subs;
+        if let Some((header, last, data)) = fragment {
+            let key = (m.to_agent, m.client_port, header.stream_id.0);
+            let entry = reassembly.entry(key).or_insert_with(|| (header, Vec::new()));
+            entry.1.extend_from_slice(&data);
+            if last {
+                let (header, body) = reassembly.remove(&key).expect("entry");
+                let mut whole = vec![0u8; header.size()];
+                header.encode(&mut whole).expect("header");
+                whole.extend_from_slice(&body);
+                subs_total += check_message(name, m.number, &whole).0;
+                inner += 1;
             }
         }
-        println!("{name}: {} messages, {inner} reassembled from fragments", messages.len());
-        total_messages += messages.len();
-        total_inner += inner;
+    }
+    println!("{name}: {} messages, {subs_total} submessages, {inner} reassembled from fragments", messages.len());
+    (messages.len(), subs_total, inner)
+}
+
+/// One test per capture file, so the test list itself shows every file covered.
+macro_rules! capture_tests {
+    ($($test:ident => $file:literal,)*) => {
+        $(
+            #[test]
+            fn $test() {
+                check_file($file);
+            }
+        )*
+
+        const COVERED: &[&str] = &[$($file),*];
+    };
+}
+
+capture_tests! {
+    big_hello_world_pubsub_udp => "big_hello_world_pubsub_udp.txt",
+    binary_entity_creation_ced_agentv2_3_0_udp => "binary_entity_creation_ced_agentv2.3.0_udp.txt",
+    binary_entity_creation_ced_agentv3_0_1_udp => "binary_entity_creation_ced_agentv3.0.1_udp.txt",
+    binary_entity_creation_udp => "binary_entity_creation_udp.txt",
+    discovery_unicast_7400_udp => "discovery_unicast_7400_udp.txt",
+    hello_world_besteffort_pubsub_udp => "hello_world_besteffort_pubsub_udp.txt",
+    hello_world_pubsub_udp_all => "hello_world_pubsub_udp.all.txt",
+    ping_agent_udp => "ping_agent_udp.txt",
+    publish_hello_world_alone_udp => "publish_hello_world_alone_udp.txt",
+    publish_hello_world_udp => "publish_hello_world_udp.txt",
+    request_reply_adder_udp => "request_reply_adder_udp.txt",
+    subscribe_hello_world_udp => "subscribe_hello_world_udp.txt",
+    tcp_ping_and_shapes => "tcp_ping_and_shapes.txt",
+    timesync_udp => "timesync_udp.txt",
+}
+
+/// Every decoded-message capture in the folder has its test above (the serial hexdump has `serial_capture.rs`),
+/// and the totals are printed (visible with `-- --nocapture`).
+#[test]
+fn every_capture_file_is_covered() {
+    let mut files: Vec<String> = std::fs::read_dir(captures_dir())
+        .expect("captures folder")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".txt") && !n.contains("hexdump"))
+        .collect();
+    files.sort();
+    let missing: Vec<&String> = files.iter().filter(|f| !COVERED.contains(&f.as_str())).collect();
+    assert!(missing.is_empty(), "capture files without a test: {missing:?}");
+    let (mut messages, mut subs, mut inner) = (0, 0, 0);
+    for file in COVERED {
+        let (m, s, i) = check_file(file);
+        messages += m;
+        subs += s;
+        inner += i;
     }
     println!(
-        "checked {total_messages} messages ({total_subs} submessages, {total_inner} reassembled) in {} capture files",
-        files.len()
+        "checked {messages} messages ({subs} submessages, {inner} reassembled) in {} capture files",
+        COVERED.len()
     );
 }
