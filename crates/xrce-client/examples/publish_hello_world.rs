@@ -1,5 +1,7 @@
 //! PublishHelloWorld: creates a participant, topic, publisher and datawriter by XML on a reliable stream and
 //! publishes `HelloWorld` samples. Usage, as eProsima's example: `publish_hello_world <ip> <port> [<max_topics>]`.
+//! With `XRCE_ENTITIES=binary` in the environment the entities are created with the binary representation
+//! instead, for agents that cannot parse XML (eProsima's v3 agent with `-m ced`).
 
 use serde::{Deserialize, Serialize};
 use xrce_client::prelude::*;
@@ -31,21 +33,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     session.create_input_reliable_stream(&mut in_buf, STREAM_HISTORY)?;
 
     let participant_id = object_id(0x01, ObjectKind::Participant);
-    let participant_xml = "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
-    let participant_req =
-        session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?;
     let topic_id = object_id(0x01, ObjectKind::Topic);
-    let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
-    let topic_req = session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?;
     let publisher_id = object_id(0x01, ObjectKind::Publisher);
-    let publisher_req = session.buffer_create_publisher_xml(reliable_out, publisher_id, participant_id, "", REPLACE)?;
     let datawriter_id = object_id(0x01, ObjectKind::DataWriter);
-    let datawriter_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
-                          <dataType>HelloWorld</dataType></topic></data_writer></dds>";
-    let datawriter_req =
-        session.buffer_create_datawriter_xml(reliable_out, datawriter_id, publisher_id, datawriter_xml, REPLACE)?;
-
-    let requests = [participant_req, topic_req, publisher_req, datawriter_req];
+    let requests = if std::env::var("XRCE_ENTITIES").is_ok_and(|v| v == "binary") {
+        [
+            session.buffer_create_participant_bin(reliable_out, participant_id, 0, None, REPLACE)?,
+            session.buffer_create_topic_bin(
+                reliable_out,
+                topic_id,
+                participant_id,
+                "HelloWorldTopic",
+                "HelloWorld",
+                REPLACE,
+            )?,
+            session.buffer_create_publisher_bin(reliable_out, publisher_id, participant_id, REPLACE)?,
+            session.buffer_create_datawriter_bin(
+                reliable_out,
+                datawriter_id,
+                publisher_id,
+                topic_id,
+                QoS::default(),
+                REPLACE,
+            )?,
+        ]
+    } else {
+        let participant_xml =
+            "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
+        let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
+        let datawriter_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
+                              <dataType>HelloWorld</dataType></topic></data_writer></dds>";
+        [
+            session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?,
+            session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?,
+            session.buffer_create_publisher_xml(reliable_out, publisher_id, participant_id, "", REPLACE)?,
+            session.buffer_create_datawriter_xml(reliable_out, datawriter_id, publisher_id, datawriter_xml, REPLACE)?,
+        ]
+    };
     let mut status = [0u8; 4];
     if !session.run_session_until_all_status(1000, &requests, &mut status)? {
         println!(

@@ -1,5 +1,7 @@
 //! SubscribeHelloWorld: creates a participant, topic, subscriber and datareader by XML, asks for every sample on
 //! reliable input stream 0x80 and prints them. Usage: `subscribe_hello_world <ip> <port> [<max_topics>]`.
+//! With `XRCE_ENTITIES=binary` in the environment the entities are created with the binary representation
+//! instead, for agents that cannot parse XML (eProsima's v3 agent with `-m ced`).
 
 use serde::{Deserialize, Serialize};
 use xrce_client::prelude::*;
@@ -46,22 +48,49 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reliable_in = session.create_input_reliable_stream(&mut in_buf, STREAM_HISTORY)?;
 
     let participant_id = object_id(0x01, ObjectKind::Participant);
-    let participant_xml = "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
-    let participant_req =
-        session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?;
     let topic_id = object_id(0x01, ObjectKind::Topic);
-    let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
-    let topic_req = session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?;
     let subscriber_id = object_id(0x01, ObjectKind::Subscriber);
-    let subscriber_req =
-        session.buffer_create_subscriber_xml(reliable_out, subscriber_id, participant_id, "", REPLACE)?;
     let datareader_id = object_id(0x01, ObjectKind::DataReader);
-    let datareader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
-                          <dataType>HelloWorld</dataType></topic></data_reader></dds>";
-    let datareader_req =
-        session.buffer_create_datareader_xml(reliable_out, datareader_id, subscriber_id, datareader_xml, REPLACE)?;
-
-    let requests = [participant_req, topic_req, subscriber_req, datareader_req];
+    let requests = if std::env::var("XRCE_ENTITIES").is_ok_and(|v| v == "binary") {
+        [
+            session.buffer_create_participant_bin(reliable_out, participant_id, 0, None, REPLACE)?,
+            session.buffer_create_topic_bin(
+                reliable_out,
+                topic_id,
+                participant_id,
+                "HelloWorldTopic",
+                "HelloWorld",
+                REPLACE,
+            )?,
+            session.buffer_create_subscriber_bin(reliable_out, subscriber_id, participant_id, REPLACE)?,
+            session.buffer_create_datareader_bin(
+                reliable_out,
+                datareader_id,
+                subscriber_id,
+                topic_id,
+                QoS::default(),
+                REPLACE,
+            )?,
+        ]
+    } else {
+        let participant_xml =
+            "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
+        let topic_xml = "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>";
+        let datareader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
+                              <dataType>HelloWorld</dataType></topic></data_reader></dds>";
+        [
+            session.buffer_create_participant_xml(reliable_out, participant_id, 0, participant_xml, REPLACE)?,
+            session.buffer_create_topic_xml(reliable_out, topic_id, participant_id, topic_xml, REPLACE)?,
+            session.buffer_create_subscriber_xml(reliable_out, subscriber_id, participant_id, "", REPLACE)?,
+            session.buffer_create_datareader_xml(
+                reliable_out,
+                datareader_id,
+                subscriber_id,
+                datareader_xml,
+                REPLACE,
+            )?,
+        ]
+    };
     let mut status = [0u8; 4];
     if !session.run_session_until_all_status(1000, &requests, &mut status)? {
         println!(
