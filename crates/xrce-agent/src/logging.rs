@@ -32,7 +32,8 @@ pub fn set_verbose_level(level: u8) -> bool {
     let installed = Registry::default()
         .with(layer)
         .with(tracing_subscriber::filter::filter_fn(dependency_filter))
-        .with(fmt::layer().with_target(false))
+        // Colours only on a terminal: logs redirected to a file or a journal stay plain text.
+        .with(fmt::layer().with_target(false).with_ansi(std::io::IsTerminal::is_terminal(&std::io::stdout())))
         .try_init()
         .is_ok();
     if installed {
