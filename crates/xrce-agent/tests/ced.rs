@@ -386,3 +386,35 @@ fn a_reliable_reader_that_never_acknowledges_stops_holding_writers() {
     }
     assert!(run(&mut h, &mut sent) >= total, "released: the reader made no progress for the dead time");
 }
+
+/// Samples handled in one batch (one `recvmmsg`) reach a packing reader in one message; without packing
+/// (eProsima's C client) each sample still gets its own message.
+#[test]
+fn a_batch_of_writes_reaches_a_packing_reader_in_one_message() {
+    for pack in [true, false] {
+        let config = xrce_agent::core::CoreConfig { pack_data: pack, ..Default::default() };
+        let core = xrce_agent::core::AgentCore::new(
+            config,
+            xrce_agent::middleware::ced::Ced::new(std::sync::Arc::new(
+                xrce_agent::middleware::describe::FallbackProfiles,
+            )),
+        );
+        let mut h = Harness::with_core(core);
+        let (mut p, mut s) = setup_pubsub(&mut h, "batch", "batch");
+        let reader = ObjectId::new(1, ObjectKind::DataReader);
+        let writer = ObjectId::new(1, ObjectKind::DataWriter);
+        h.send(SUB, &s.read(reader, 0x80, unlimited()));
+        let before = h.received.get(&SUB).map_or(0, Vec::len);
+        // Eight reliable writes arrive together, as one receive batch of the UDP shell.
+        for i in 0..8u32 {
+            let m = p.write(true, writer, &i.to_le_bytes());
+            h.core.handle_datagram(PUB, &m, h.now);
+        }
+        h.drain();
+        let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+        assert_eq!(got, (0..8).collect::<Vec<_>>(), "pack {pack}");
+        let with_data =
+            h.received[&SUB][before..].iter().filter(|r| r.subs.iter().any(|o| matches!(o, Out::Data { .. }))).count();
+        assert_eq!(with_data, if pack { 1 } else { 8 }, "messages carrying the 8 samples, pack {pack}");
+    }
+}

@@ -132,6 +132,8 @@ struct ParticipantInner {
     // subscriber, publisher and participant they were created from.
     dispatcher: Dispatcher,
     topics: Mutex<HashMap<String, TopicEntry>>,
+    /// Writers shared by every XRCE datawriter with the same topic and QoS (see [`Participant::shared_writer`]).
+    writers: Mutex<HashMap<(String, EndpointQos), Weak<RawWriter>>>,
     subscriber: Subscriber,
     publisher: Publisher,
     participant: DomainParticipant,
@@ -150,7 +152,15 @@ impl ParticipantInner {
         let publisher = participant.create_publisher(&empty).map_err(create_err("publisher"))?;
         let subscriber = participant.create_subscriber(&empty).map_err(create_err("subscriber"))?;
         let dispatcher = Dispatcher::start(format!("xrce-dds-d{}", key.domain_id))?;
-        Ok(Self { dispatcher, topics: Mutex::new(HashMap::new()), subscriber, publisher, participant, key })
+        Ok(Self {
+            dispatcher,
+            topics: Mutex::new(HashMap::new()),
+            writers: Mutex::new(HashMap::new()),
+            subscriber,
+            publisher,
+            participant,
+            key,
+        })
     }
 }
 
@@ -245,7 +255,27 @@ impl Participant {
         lock(&self.inner.topics).get(name).map(|e| RawTopic { topic: e.topic.clone(), keyed: e.keyed })
     }
 
-    /// A datawriter on `topic`.
+    /// The datawriter on `topic` with `qos` shared by every caller asking for the same pair, created on first
+    /// use and deleted with the last handle. Thousands of XRCE clients publishing one topic then cost one DDS
+    /// writer (one GUID, one history, one discovery announcement) instead of a writer each (about 20 KiB
+    /// and an SEDP record at every peer). DDS readers see one publisher where eProsima's agent shows one per
+    /// XRCE datawriter; samples, order per writer and reliability are the same.
+    pub fn shared_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<Arc<RawWriter>, DdsError> {
+        let key = (topic.name(), qos.clone());
+        let mut map = lock(&self.inner.writers);
+        if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
+            return Ok(w);
+        }
+        // Dead entries are pruned whenever the map doubles: amortised O(1) per creation.
+        if map.len() >= 16 && map.len().is_power_of_two() {
+            map.retain(|_, w| w.strong_count() > 0);
+        }
+        let w = Arc::new(self.create_writer(topic, qos)?);
+        map.insert(key, Arc::downgrade(&w));
+        Ok(w)
+    }
+
+    /// A datawriter on `topic`, this caller's own.
     pub fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {
         let q = qos.to_rustdds(false);
         let kind = if topic.keyed {

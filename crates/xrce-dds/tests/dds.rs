@@ -210,3 +210,34 @@ fn request_reply_across_participants_and_within_one() {
     request_reply(&req, &rep);
     assert!(req2.replies().is_empty());
 }
+
+#[test]
+#[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]
+fn writers_with_the_same_topic_and_qos_are_shared_until_the_last_handle_goes() {
+    let (a, b) = (bridge(), bridge());
+    let pa = a.participant(0, "").unwrap();
+    let pb = b.participant(0, "").unwrap();
+    let ta = pa.topic("SharedWriterTopic", "HelloWorld", false).unwrap();
+    let tb = pb.topic("SharedWriterTopic", "HelloWorld", false).unwrap();
+    let reader = pb.create_reader(&tb, &EndpointQos::default()).unwrap();
+    let w1 = pa.shared_writer(&ta, &EndpointQos::default()).unwrap();
+    let w2 = pa.shared_writer(&ta, &EndpointQos::default()).unwrap();
+    assert!(Arc::ptr_eq(&w1, &w2), "same topic and QoS: one DDS writer");
+    let other = pa.shared_writer(&ta, &EndpointQos::best_effort(4)).unwrap();
+    assert_ne!(other.guid(), w1.guid(), "other QoS: another writer");
+    drop(other);
+    wait_matched(&w1, 1, 20);
+    w1.write(&hello_body(1, "from the first")).unwrap();
+    w2.write(&hello_body(2, "from the second")).unwrap();
+    let got = collect(reader.queue(), 2, 20);
+    assert_eq!(got.iter().map(|s| hello_decode(&s.data).unwrap().0).collect::<Vec<_>>(), [1, 2]);
+    assert!(got.iter().all(|s| s.identity.writer_guid == w1.guid()));
+    // One handle gone: the writer stays for the other; all gone: the next request creates a new writer.
+    let guid = w1.guid();
+    drop(w1);
+    w2.write(&hello_body(3, "still here")).unwrap();
+    assert_eq!(hello_decode(&collect(reader.queue(), 1, 20)[0].data).unwrap().0, 3);
+    drop(w2);
+    let w3 = pa.shared_writer(&ta, &EndpointQos::default()).unwrap();
+    assert_ne!(w3.guid(), guid, "a new DDS writer after the last handle went");
+}

@@ -69,6 +69,9 @@ pub struct AgentCore<E, M> {
     scratch: Vec<Vec<u8>>,
     heartbeat_due: Option<Instant>,
     pump_needed: bool,
+    /// Datagrams were handled since the last pump: samples are delivered (and held-back input retried) once
+    /// per batch, by the next [`Self::poll_transmit`], so one message can carry several samples.
+    pump_deferred: bool,
     /// Reliable input streams holding a message back until the middleware can take its writes.
     blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
     /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
@@ -115,6 +118,7 @@ where
             scratch: Vec::new(),
             heartbeat_due: None,
             pump_needed: false,
+            pump_deferred: false,
             blocked: Vec::new(),
             acks_due: Vec::new(),
             pumping: false,
@@ -169,7 +173,8 @@ where
         self.clients.get(&key).is_some_and(|c| c.objects.contains(id))
     }
 
-    /// Handles one received message from `from`.
+    /// Handles one received message from `from`. Its samples reach readers at the end of the batch (the next
+    /// [`Self::poll_transmit`] or [`Self::end_batch`]), so several can share one message.
     pub fn handle_datagram(&mut self, from: E, bytes: &[u8], now: Instant) {
         self.stats.datagrams_in = self.stats.datagrams_in.saturating_add(1);
         if self.wall_anchor.is_none() {
@@ -177,11 +182,21 @@ where
         }
         self.last_now = Some(now);
         self.process_datagram(from, bytes, now);
-        self.pump_and_retry(now);
+        self.pump_deferred = true;
+    }
+
+    /// Runs the delivery deferred by [`Self::handle_datagram`] (also done by [`Self::poll_transmit`]).
+    pub fn end_batch(&mut self) {
+        if std::mem::take(&mut self.pump_deferred) {
+            if let Some(now) = self.last_now {
+                self.pump_and_retry(now);
+            }
+        }
     }
 
     /// Delivers samples, then retries held-back reliable input streams while that makes progress.
     fn pump_and_retry(&mut self, now: Instant) {
+        self.pump_deferred = false;
         for _ in 0..4 {
             if self.pump_needed {
                 self.pump_reads(now);
@@ -228,6 +243,7 @@ where
 
     /// The next message to send.
     pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
+        self.end_batch();
         if !self.acks_due.is_empty() {
             self.flush_acknacks();
         }
@@ -243,9 +259,9 @@ where
         self.pool.put(data);
     }
 
-    /// Number of messages waiting in [`Self::poll_transmit`].
+    /// Number of messages waiting in [`Self::poll_transmit`] (at least one while a batch awaits delivery).
     pub fn pending_transmits(&self) -> usize {
-        self.transmits.len() + self.acks_due.len()
+        self.transmits.len() + self.acks_due.len() + usize::from(self.pump_deferred)
     }
 
     /// Creates or refreshes a client without a CREATE_CLIENT message (library API; eProsima's

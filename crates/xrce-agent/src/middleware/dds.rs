@@ -40,7 +40,8 @@
 //!   core then holds the publisher's reliable stream, whose history fills, and its writes block. Not
 //!   covered: remote DDS readers (RustDDS blocks the write on its own send window, [`WRITE_RETRIES`]) and
 //!   remote DDS writers to a stalled XRCE reader (RustDDS has acknowledged those samples already).
-//! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names.
+//! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
+//!   keeps a 64-bit digest of it (std's `DefaultHasher`, fixed keys), not the description itself, to stay small.
 
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::Arc;
@@ -79,7 +80,7 @@ pub const IN_FLIGHT_STALL: std::time::Duration = std::time::Duration::from_milli
 pub const TAKE_BATCH: usize = 64;
 
 /// How a datawriter or datareader names its topic.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
 enum TopicSel {
     /// A topic object of the same client (binary representation).
     Object(ObjectId),
@@ -87,14 +88,14 @@ enum TopicSel {
     Name { name: String, type_name: Option<String>, keyed: bool },
 }
 
-/// Everything an entity is created from; REUSE compares it whole.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// Everything an entity is created from; REUSE compares it whole (through [`Spec::digest`]).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
 enum Spec {
     Participant { domain: u16, name: Option<String> },
     Topic { name: String, type_name: String, keyed: bool },
     Group { partitions: Vec<String> },
     Endpoint { topic: TopicSel, qos: DdsQos },
-    Service { desc: ServiceDescription, qos: DdsQos },
+    Service { desc: Box<ServiceDescription>, qos: DdsQos },
 }
 
 /// A topic as the DDS participant it lives in sees it: participant GUID and topic name. A local writer
@@ -117,19 +118,40 @@ enum Handle {
     Participant(Participant),
     Topic(RawTopic),
     Group,
-    Writer { writer: RawWriter, topic: TopicId, written: Option<Written> },
-    Reader { reader: RawReader, topic: TopicId },
-    Requester(Requester),
-    Replier(Replier),
+    /// `writer` is shared by every XRCE datawriter of the participant with the same topic and QoS;
+    /// `written` is this datawriter's own part of its sequence numbers.
+    Writer {
+        writer: Arc<RawWriter>,
+        topic: TopicId,
+        written: Option<Written>,
+    },
+    Reader {
+        reader: RawReader,
+        topic: TopicId,
+    },
+    // Boxed: rare and large; the common variants stay small (a node per entity, thousands of clients).
+    Requester(Box<Requester>),
+    Replier(Box<Replier>),
 }
 
 struct Node {
     parent: Option<EntityRef>,
-    spec: Spec,
+    /// [`Spec::digest`] of what the entity was created from (for REUSE).
+    spec: u64,
     handle: Handle,
     /// Samples already taken from the bridge queue, in order, for the core (readers, requesters,
     /// repliers); refilled [`TAKE_BATCH`] at a time.
     local: VecDeque<ReceivedSample>,
+}
+
+impl Spec {
+    /// A 64-bit digest, the same for equal specs within the process (`DefaultHasher::new` has fixed keys).
+    fn digest(&self) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::hash::DefaultHasher::new();
+        self.hash(&mut h);
+        h.finish()
+    }
 }
 
 impl Node {
@@ -178,7 +200,11 @@ impl Node {
 pub struct Dds {
     profiles: Arc<dyn ProfileSource>,
     bridge: Arc<DdsBridge>,
-    entities: HashMap<EntityRef, Node>,
+    /// Boxed nodes: the table's spare capacity then costs a pointer per slot, not a whole node.
+    entities: HashMap<EntityRef, Box<Node>>,
+    /// Entities per client, so deleting a client whose entities are already gone (the usual case: the core
+    /// deletes them one by one first) does not scan the whole registry.
+    owned: HashMap<ClientKey, u32>,
     waker: Option<Waker>,
     /// Datareaders whose samples must not be lost: they hold writers back (see the module documentation).
     pinned: HashSet<EntityRef>,
@@ -274,15 +300,15 @@ fn service(
     reply_type: &str,
     request_topic: Option<&str>,
     reply_topic: Option<&str>,
-) -> ServiceDescription {
+) -> Box<ServiceDescription> {
     let non_empty = |s: Option<&str>| s.filter(|s| !s.is_empty()).map(str::to_owned);
-    ServiceDescription {
+    Box::new(ServiceDescription {
         service_name: service_name.to_owned(),
         request_type: request_type.to_owned(),
         reply_type: reply_type.to_owned(),
         request_topic_name: non_empty(request_topic),
         reply_topic_name: non_empty(reply_topic),
-    }
+    })
 }
 
 /// XRCE sample identity of a DDS sample identity.
@@ -326,7 +352,7 @@ impl Dds {
 
     /// A DDS middleware on an existing bridge (its participants are shared with whoever else holds it).
     pub fn with_bridge(profiles: Arc<dyn ProfileSource>, bridge: Arc<DdsBridge>) -> Self {
-        Self { profiles, bridge, entities: HashMap::new(), waker: None, pinned: HashSet::new() }
+        Self { profiles, bridge, entities: HashMap::new(), owned: HashMap::new(), waker: None, pinned: HashSet::new() }
     }
 
     /// The bridge (DDS participants alive, domain resolution).
@@ -374,7 +400,7 @@ impl Dds {
     // ---- parents
 
     fn node(&self, entity: EntityRef) -> Result<&Node, MiddlewareError> {
-        self.entities.get(&entity).ok_or_else(|| unknown(entity))
+        self.entities.get(&entity).map(|n| &**n).ok_or_else(|| unknown(entity))
     }
 
     fn participant_of(&self, parent: Option<EntityRef>) -> Result<(EntityRef, Participant), MiddlewareError> {
@@ -452,7 +478,7 @@ impl Dds {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let topic = (p.guid(), t.name());
-                Handle::Writer { writer: p.create_writer(&t, qos).map_err(dds_error)?, topic, written: None }
+                Handle::Writer { writer: p.shared_writer(&t, qos).map_err(dds_error)?, topic, written: None }
             }
             (ObjectKind::DataReader, Spec::Endpoint { topic, qos }) => {
                 let (pref, p) = self.group_participant(parent)?;
@@ -462,11 +488,11 @@ impl Dds {
             }
             (ObjectKind::Requester, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
-                Handle::Requester(Requester::new(&p, desc, qos).map_err(dds_error)?)
+                Handle::Requester(Box::new(Requester::new(&p, desc, qos).map_err(dds_error)?))
             }
             (ObjectKind::Replier, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
-                Handle::Replier(Replier::new(&p, desc, qos).map_err(dds_error)?)
+                Handle::Replier(Box::new(Replier::new(&p, desc, qos).map_err(dds_error)?))
             }
             (kind, s) => return Err(invalid(format!("{kind:?} cannot be described as {s:?}"))),
         })
@@ -563,34 +589,52 @@ fn spec_from_binary(b: BinaryObject<'_>) -> Result<Spec, MiddlewareError> {
     })
 }
 
+impl Dds {
+    fn disown(&mut self, client: ClientKey) {
+        if let Some(n) = self.owned.get_mut(&client) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                self.owned.remove(&client);
+            }
+        }
+    }
+}
+
 impl Middleware for Dds {
     fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
         let spec = self.spec_of(creation)?;
         let handle = self.build(creation, &spec)?;
-        let node = Node { parent: creation.parent, spec, handle, local: VecDeque::new() };
+        let node = Node { parent: creation.parent, spec: spec.digest(), handle, local: VecDeque::new() };
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
         if let (Some(w), Some(q)) = (&self.waker, node.queue()) {
             q.set_waker(Some(Arc::clone(w)));
         }
-        self.entities.insert(creation.entity, node);
+        if self.entities.insert(creation.entity, Box::new(node)).is_none() {
+            *self.owned.entry(creation.entity.client).or_default() += 1;
+        }
         Ok(())
     }
 
     fn matches(&self, creation: &Creation<'_>) -> bool {
         let Some(node) = self.entities.get(&creation.entity) else { return false };
         match self.spec_of(creation) {
-            Ok(spec) => node.parent == creation.parent && node.spec == spec,
+            Ok(spec) => node.parent == creation.parent && node.spec == spec.digest(),
             Err(_) => false,
         }
     }
 
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
         self.pinned.remove(&entity);
-        self.entities.remove(&entity).map(drop).ok_or_else(|| unknown(entity))
+        self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
+        self.disown(entity.client);
+        Ok(())
     }
 
     fn delete_client(&mut self, client: ClientKey) {
+        if self.owned.remove(&client).is_none() {
+            return;
+        }
         self.pinned.retain(|e| e.client != client);
         self.entities.retain(|e, _| e.client != client);
     }
@@ -699,7 +743,9 @@ impl Middleware for Dds {
         if self.pinned.is_empty() {
             return true;
         }
-        let Some(Node { handle: Handle::Writer { writer: w, topic, written }, .. }) = self.entities.get(&writer) else {
+        let Some(Node { handle: Handle::Writer { writer: w, topic, written }, .. }) =
+            self.entities.get(&writer).map(|n| &**n)
+        else {
             return true;
         };
         let guid = w.guid();
@@ -714,7 +760,8 @@ impl Middleware for Dds {
     }
 
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
-        let is_reader = matches!(self.entities.get(&reader), Some(Node { handle: Handle::Reader { .. }, .. }));
+        let is_reader =
+            matches!(self.entities.get(&reader).map(|n| &**n), Some(Node { handle: Handle::Reader { .. }, .. }));
         if reliable && is_reader {
             self.pinned.insert(reader);
         } else {
