@@ -171,6 +171,10 @@ struct SessionsArgs {
     /// Leave the sessions in the agent (default: delete them at the end).
     #[arg(long)]
     keep: bool,
+    /// Clients created before the agent's RSS is first sampled, so one-off costs (a DDS participant,
+    /// pools) are not counted per client; the table shows both figures.
+    #[arg(long, default_value_t = 1)]
+    warmup: usize,
     /// The agent's PID: report its RSS growth per client.
     #[arg(long)]
     agent_pid: Option<u32>,
@@ -393,6 +397,7 @@ fn sessions_cmd(a: &SessionsArgs) -> Result<(), BenchError> {
     cfg.timeout = a.timeout;
     cfg.agent_pid = a.agent_pid;
     cfg.delete = !a.keep;
+    cfg.warmup = a.warmup;
     let pb = bar(a.clients >= 500, format!("{} sessions", a.clients));
     let r = sessions::run(&cfg, &set(&pb));
     pb.finish_and_clear();

@@ -142,9 +142,11 @@ impl Row for SessionsResult {
             "clients/s",
             "p50 ms",
             "p99 ms",
-            "agent RSS before MiB",
+            "agent RSS start MiB",
+            "after warm-up MiB",
             "after MiB",
             "per client B",
+            "incl. one-off B",
             "agent cpu %",
         ]
     }
@@ -157,9 +159,11 @@ impl Row for SessionsResult {
             format!("{:.0}", self.clients_per_s),
             format!("{:.1}", self.create_ms.p50),
             format!("{:.1}", self.create_ms.p99),
+            opt(self.agent_rss_start_kib, mib),
             opt(self.agent_rss_before_kib, mib),
             opt(self.agent_rss_after_kib, mib),
             opt(self.agent_rss_per_client_b, |b| format!("{b:.0}")),
+            opt(self.agent_rss_per_client_total_b, |b| format!("{b:.0}")),
             opt(self.agent, |a| format!("{:.0}", a.cpu_percent)),
         ]
     }

@@ -37,6 +37,9 @@ pub struct SessionsConfig {
     pub timeout: Duration,
     /// The agent's PID, to measure its memory.
     pub agent_pid: Option<u32>,
+    /// Clients created (and kept) before the first RSS sample, so one-off costs (a DDS participant, the
+    /// shared topic, pools, code pages) are not counted per client; 0 counts everything.
+    pub warmup: usize,
     /// Delete the sessions at the end.
     pub delete: bool,
     /// Run id.
@@ -54,6 +57,7 @@ impl SessionsConfig {
             mtu: 512,
             timeout: Duration::from_secs(10),
             agent_pid: None,
+            warmup: 1,
             delete: true,
             run: crate::run_id(),
         }
@@ -79,12 +83,18 @@ pub struct SessionsResult {
     pub clients_per_s: f64,
     /// Time each client took, ms.
     pub create_ms: Percentiles,
-    /// The agent's `VmRSS` before the first client, KiB.
+    /// Warm-up clients created before `agent_rss_before_kib` was sampled (not in `clients`).
+    pub warmup: usize,
+    /// The agent's `VmRSS` before any client (warm-up included), KiB.
+    pub agent_rss_start_kib: Option<u64>,
+    /// The agent's `VmRSS` after the warm-up clients, before the first measured client, KiB.
     pub agent_rss_before_kib: Option<u64>,
     /// The agent's `VmRSS` with every client alive, KiB.
     pub agent_rss_after_kib: Option<u64>,
-    /// RSS growth per successful client, bytes.
+    /// RSS growth per successful client after the warm-up, bytes (the marginal cost of a client).
     pub agent_rss_per_client_b: Option<f64>,
+    /// RSS growth from the start, warm-up included, per client (warm-up clients counted), bytes.
+    pub agent_rss_per_client_total_b: Option<f64>,
     /// The agent's CPU and peak memory while the clients were created.
     pub agent: Option<AgentUsage>,
     /// Sessions whose deletion the agent confirmed.
@@ -339,15 +349,37 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
         return Err(BenchError::Config("at least one client and one worker".into()));
     }
     let topic = format!("xrce_bench_sessions_{:08x}", cfg.run);
-    let before = cfg.agent_pid.map(procstat::sample).transpose()?;
-    let monitor = cfg.agent_pid.map(|pid| Monitor::start(pid, Duration::from_millis(100))).transpose()?;
+    let start_rss = cfg.agent_pid.map(procstat::sample).transpose()?;
+    let warmup = cfg.warmup;
     let workers = cfg.workers.min(cfg.clients);
     let done = AtomicU64::new(0);
     let finished = AtomicUsize::new(0);
-    let barrier = Barrier::new(workers + 1);
+    let warm_done = AtomicU64::new(0);
+    let warm_finished = AtomicUsize::new(0);
+    let warm_results = Mutex::new(Vec::new());
+    let barrier = Barrier::new(workers + 1 + usize::from(warmup > 0));
     let results = Mutex::new(Vec::new());
-    let start = Instant::now();
-    let (elapsed, after, agent) = std::thread::scope(|s| {
+    let (elapsed, before, after, agent) = std::thread::scope(|s| {
+        // Warm-up clients (indices after the measured ones) first, kept alive like the others.
+        let warm = (warmup > 0).then(|| {
+            let (topic, done, finished, barrier, results) =
+                (&topic, &warm_done, &warm_finished, &barrier, &warm_results);
+            s.spawn(move || worker(cfg, cfg.clients, warmup, topic, done, finished, barrier, results))
+        });
+        let warm_until = Instant::now() + cfg.timeout + Duration::from_secs(1);
+        while warm.is_some() && warm_finished.load(Ordering::Relaxed) == 0 && Instant::now() < warm_until {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let before = match cfg.agent_pid {
+            Some(pid) => {
+                // Let the agent settle (a DDS participant's first discovery rounds) before the sample.
+                std::thread::sleep(Duration::from_millis(if warmup > 0 { 300 } else { 0 }));
+                Some(procstat::sample(pid))
+            }
+            None => None,
+        };
+        let monitor = cfg.agent_pid.map(|pid| Monitor::start(pid, Duration::from_millis(100)));
+        let start = Instant::now();
         let handles: Vec<_> = (0..workers)
             .map(|w| {
                 let first = cfg.clients * w / workers;
@@ -370,14 +402,15 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
             std::thread::sleep(Duration::from_millis(300));
             procstat::sample(pid)
         });
-        let agent = monitor.map(Monitor::stop);
+        let agent = monitor.map(|m| m.and_then(Monitor::stop));
         barrier.wait();
         barrier.wait();
-        for h in handles {
+        for h in handles.into_iter().chain(warm) {
             join(h.join().map(Ok), "sessions worker")?;
         }
-        Ok((elapsed, after.transpose()?, agent.transpose()?))
+        Ok((elapsed, before.transpose()?, after.transpose()?, agent.transpose()?))
     })?;
+    let warm_ok: usize = warm_results.into_inner().map_or(0, |v| v.iter().map(|r| r.ok).sum());
 
     let results = results.into_inner().map_err(|_| BenchError::Thread("results lock poisoned".into()))?;
     let mut failures = std::collections::BTreeMap::new();
@@ -393,10 +426,11 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
     }
     let failed = failures.values().sum();
     let secs = elapsed.as_secs_f64().max(1e-9);
+    let rss_start = start_rss.map(|b| b.rss_kib);
     let rss_before = before.map(|b| b.rss_kib);
     let rss_after = after.map(|a| a.rss_kib);
-    let per_client = match (rss_before, rss_after) {
-        (Some(b), Some(a)) if ok > 0 => Some((a as f64 - b as f64) * 1024.0 / ok as f64),
+    let growth = |from: Option<u64>, n: usize| match (from, rss_after) {
+        (Some(b), Some(a)) if n > 0 => Some((a as f64 - b as f64) * 1024.0 / n as f64),
         _ => None,
     };
     Ok(SessionsResult {
@@ -408,9 +442,12 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
         elapsed_s: secs,
         clients_per_s: ok as f64 / secs,
         create_ms: Percentiles::of(&mut times),
+        warmup: warm_ok,
+        agent_rss_start_kib: rss_start,
         agent_rss_before_kib: rss_before,
         agent_rss_after_kib: rss_after,
-        agent_rss_per_client_b: per_client,
+        agent_rss_per_client_b: growth(rss_before, ok),
+        agent_rss_per_client_total_b: growth(rss_start, ok + warm_ok),
         agent,
         deleted,
     })

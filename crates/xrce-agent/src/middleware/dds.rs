@@ -113,22 +113,28 @@ struct Written {
     last_seq: i64,
 }
 
+/// A datawriter's DDS side. `writer` is shared by every XRCE datawriter of the participant with the same
+/// topic and QoS; `written` is this datawriter's own part of its sequence numbers.
+struct WriterState {
+    writer: Arc<RawWriter>,
+    topic: TopicId,
+    written: Option<Written>,
+}
+
+/// A datareader's DDS side.
+struct ReaderState {
+    reader: RawReader,
+    topic: TopicId,
+}
+
 /// The DDS side of an entity.
 enum Handle {
     Participant(Participant),
     Topic(RawTopic),
     Group,
-    /// `writer` is shared by every XRCE datawriter of the participant with the same topic and QoS;
-    /// `written` is this datawriter's own part of its sequence numbers.
-    Writer {
-        writer: Arc<RawWriter>,
-        topic: TopicId,
-        written: Option<Written>,
-    },
-    Reader {
-        reader: RawReader,
-        topic: TopicId,
-    },
+    // Endpoints are boxed like requesters and repliers: a node per entity stays small (thousands of clients).
+    Writer(Box<WriterState>),
+    Reader(Box<ReaderState>),
     // Boxed: rare and large; the common variants stay small (a node per entity, thousands of clients).
     Requester(Box<Requester>),
     Replier(Box<Replier>),
@@ -158,7 +164,7 @@ impl Node {
     /// The queue the core reads from, for readers, requesters and repliers.
     fn queue(&self) -> Option<&SampleQueue> {
         match &self.handle {
-            Handle::Reader { reader, .. } => Some(reader.queue()),
+            Handle::Reader(r) => Some(r.reader.queue()),
             Handle::Requester(r) => Some(r.replies()),
             Handle::Replier(r) => Some(r.requests()),
             _ => None,
@@ -478,13 +484,17 @@ impl Dds {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let topic = (p.guid(), t.name());
-                Handle::Writer { writer: p.shared_writer(&t, qos).map_err(dds_error)?, topic, written: None }
+                Handle::Writer(Box::new(WriterState {
+                    writer: p.shared_writer(&t, qos).map_err(dds_error)?,
+                    topic,
+                    written: None,
+                }))
             }
             (ObjectKind::DataReader, Spec::Endpoint { topic, qos }) => {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let topic = (p.guid(), t.name());
-                Handle::Reader { reader: p.create_reader(&t, qos).map_err(dds_error)?, topic }
+                Handle::Reader(Box::new(ReaderState { reader: p.create_reader(&t, qos).map_err(dds_error)?, topic }))
             }
             (ObjectKind::Requester, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
@@ -641,9 +651,10 @@ impl Middleware for Dds {
 
     fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
         let node = self.entities.get_mut(&writer).ok_or_else(|| unknown(writer))?;
-        let Handle::Writer { writer: w, written, .. } = &mut node.handle else {
+        let Handle::Writer(state) = &mut node.handle else {
             return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
         };
+        let WriterState { writer: w, written, .. } = &mut **state;
         let mut tries = 0;
         loop {
             match w.write(data) {
@@ -743,16 +754,15 @@ impl Middleware for Dds {
         if self.pinned.is_empty() {
             return true;
         }
-        let Some(Node { handle: Handle::Writer { writer: w, topic, written }, .. }) =
-            self.entities.get(&writer).map(|n| &**n)
-        else {
+        let Some(Node { handle: Handle::Writer(state), .. }) = self.entities.get(&writer).map(|n| &**n) else {
             return true;
         };
+        let WriterState { writer: w, topic, written } = &**state;
         let guid = w.guid();
         let now = Instant::now();
         !self.pinned.iter().filter_map(|r| self.entities.get(r)).any(|node| match &node.handle {
-            Handle::Reader { reader, topic: t } if t == topic => {
-                let bound = RELIABLE_BACKLOG.min(reader.queue().capacity() / 2).max(1);
+            Handle::Reader(r) if r.topic == *topic => {
+                let bound = RELIABLE_BACKLOG.min(r.reader.queue().capacity() / 2).max(1);
                 node.backlog_for(&guid, *written, now) >= bound
             }
             _ => false,
@@ -761,7 +771,7 @@ impl Middleware for Dds {
 
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
         let is_reader =
-            matches!(self.entities.get(&reader).map(|n| &**n), Some(Node { handle: Handle::Reader { .. }, .. }));
+            matches!(self.entities.get(&reader).map(|n| &**n), Some(Node { handle: Handle::Reader(_), .. }));
         if reliable && is_reader {
             self.pinned.insert(reader);
         } else {
