@@ -3,7 +3,8 @@
 //! eProsima's agent creates one Fast DDS participant per XRCE participant (21 MiB and several threads
 //! each) and dies at about 210 clients. Here an XRCE participant is only a handle on a DDS participant
 //! shared by every XRCE participant with the same domain and profile, so thousands of clients each with a
-//! datawriter fit in one RustDDS participant (issue 5 item 6).
+//! datawriter fit in one RustDDS participant (issue 5 item 6). Writers can be shared the same way
+//! ([`Participant::shared_writer`]): one DDS writer per topic and QoS, however many XRCE datawriters use it.
 
 use std::collections::HashMap;
 use std::net::IpAddr;
