@@ -873,6 +873,7 @@ where
             let request = task.request;
             let Some(sample) = self.middleware.take_sample(entity) else { return };
             self.send_data(key, stream, request, &sample, now);
+            self.middleware.recycle_sample(sample);
             if let Some(task) = self.clients.get_mut(&key).and_then(|c| c.reads.get_mut(&reader)) {
                 task.sent(size, now);
             }

@@ -142,6 +142,9 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
         self.inner.take_sample(reader)
     }
+    fn recycle_sample(&mut self, sample: Sample) {
+        self.inner.recycle_sample(sample);
+    }
     fn set_waker(&mut self, waker: Waker) {
         self.inner.set_waker(waker);
     }

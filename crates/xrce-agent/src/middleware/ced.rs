@@ -58,7 +58,8 @@ impl<T> Ring<T> {
     /// Appends `item`, keeping `capacity` items, or more while `pin` (the oldest sequence number a reliable
     /// reader still has to take) protects them, up to [`MAX_BACKLOG`]. Returns whether a pinned item was
     /// dropped.
-    fn push(&mut self, item: T, capacity: usize, pin: Option<u64>) -> bool {
+    /// Items that go are handed to `gone` (sample buffers are reused).
+    fn push(&mut self, item: T, capacity: usize, pin: Option<u64>, mut gone: impl FnMut(T)) -> bool {
         self.items.push_back((self.next_seq, item));
         self.next_seq += 1;
         let mut forced = false;
@@ -69,7 +70,9 @@ impl<T> Ring<T> {
                 break;
             }
             forced |= protected;
-            self.items.pop_front();
+            if let Some((_, old)) = self.items.pop_front() {
+                gone(old);
+            }
         }
         forced
     }
@@ -114,12 +117,54 @@ enum Entity {
     },
 }
 
+/// Reusable sample buffers, bounded in number and size.
+#[derive(Debug, Default)]
+struct SpareBuffers {
+    spare: Vec<Vec<u8>>,
+    /// Buffers created because none was spare (diagnostics, tests).
+    created: u64,
+}
+
+impl SpareBuffers {
+    /// Buffers kept at most.
+    const MAX: usize = 1024;
+    /// Larger buffers are freed rather than kept.
+    const MAX_CAPACITY: usize = 4096;
+
+    /// An empty buffer for `len` bytes, reused when one is spare. A spare buffer much larger than needed is
+    /// shrunk first, so the ring never holds small samples in large buffers (memory stays proportional to
+    /// the samples kept); with samples of one size, as usual, nothing is allocated once warm.
+    fn get(&mut self, len: usize) -> Vec<u8> {
+        match self.spare.pop() {
+            Some(mut buf) => {
+                if buf.capacity() > 2 * len + 64 {
+                    buf.shrink_to(len);
+                }
+                buf
+            }
+            None => {
+                self.created = self.created.saturating_add(1);
+                Vec::with_capacity(len)
+            }
+        }
+    }
+
+    fn put(&mut self, mut buf: Vec<u8>) {
+        if self.spare.len() < Self::MAX && buf.capacity() <= Self::MAX_CAPACITY {
+            buf.clear();
+            self.spare.push(buf);
+        }
+    }
+}
+
 /// The CED middleware.
 pub struct Ced {
     profiles: Arc<dyn ProfileSource>,
     default_domain: i16,
     ring_size: usize,
-    topics: HashMap<TopicKey, Ring<Arc<[u8]>>>,
+    topics: HashMap<TopicKey, Ring<Vec<u8>>>,
+    /// Sample buffers to reuse: a write or a take costs no allocation once warm.
+    spare: SpareBuffers,
     services: HashMap<TopicKey, Ring<PendingRequest>>,
     entities: HashMap<EntityRef, Entity>,
     /// Entities per client, so deleting a client whose entities are already gone (the usual case: the core
@@ -173,11 +218,17 @@ impl Ced {
             default_domain: 0,
             ring_size: DEFAULT_RING_SIZE,
             topics: HashMap::new(),
+            spare: SpareBuffers::default(),
             services: HashMap::new(),
             entities: HashMap::new(),
             owned: HashMap::new(),
             forced_drops: 0,
         }
+    }
+
+    /// Sample buffers created so far; constant once warm (writes and takes reuse buffers).
+    pub fn sample_buffers_created(&self) -> u64 {
+        self.spare.created
     }
 
     /// Samples a reliable reader had not taken but that went anyway ([`MAX_BACKLOG`] exceeded).
@@ -399,7 +450,10 @@ impl Middleware for Ced {
         let capacity = self.ring_size;
         let pin = self.pin(&key);
         if let Some(ring) = self.topics.get_mut(&key) {
-            if ring.push(Arc::from(data), capacity, pin) {
+            let mut buf = self.spare.get(data.len());
+            buf.extend_from_slice(data);
+            let spare = &mut self.spare;
+            if ring.push(buf, capacity, pin, |old| spare.put(old)) {
                 self.forced_drops = self.forced_drops.saturating_add(1);
                 tracing::warn!(
                     ?writer,
@@ -424,7 +478,7 @@ impl Middleware for Ced {
         let key = key.clone();
         let capacity = self.ring_size;
         if let Some(ring) = self.services.get_mut(&key) {
-            ring.push((identity, Arc::from(data)), capacity, None);
+            ring.push((identity, Arc::from(data)), capacity, None, drop);
         }
         Ok(())
     }
@@ -495,14 +549,23 @@ impl Middleware for Ced {
         }
     }
 
+    fn recycle_sample(&mut self, sample: Sample) {
+        if let Sample::Data(buf) = sample {
+            self.spare.put(buf);
+        }
+    }
+
     fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
         let topics = &self.topics;
         let services = &self.services;
+        let spare = &mut self.spare;
         match self.entities.get_mut(&reader)? {
             Entity::Reader { key, cursor } => {
                 let (seq, data) = topics.get(key)?.at_or_after(*cursor)?;
                 *cursor = seq + 1;
-                Some(Sample::Data(data.to_vec()))
+                let mut buf = spare.get(data.len());
+                buf.extend_from_slice(data);
+                Some(Sample::Data(buf))
             }
             Entity::Replier { key, cursor } => {
                 let (seq, (identity, data)) = services.get(key)?.at_or_after(*cursor)?;
@@ -535,5 +598,55 @@ impl Ced {
             Entity::Requester { key, .. } | Entity::Replier { key, .. } => Self::detach(&mut self.services, &key),
             Entity::Participant { .. } | Entity::Group { .. } => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::middleware::describe::FallbackProfiles;
+    use xrce_proto::object::{BinaryObject, DataReaderBinary, DataWriterBinary, Representation, TopicBinary};
+    use xrce_proto::{Endianness, EntityVariant};
+
+    fn create(ced: &mut Ced, entity: EntityRef, parent: Option<EntityRef>, variant: &EntityVariant<'_>) {
+        let creation = Creation { entity, parent, variant, endian: Endianness::Little };
+        ced.create(&creation).expect("create");
+    }
+
+    #[test]
+    fn sample_buffers_are_reused_once_warm() {
+        let mut ced = Ced::new(Arc::new(FallbackProfiles));
+        let client = ClientKey([1, 2, 3, 4]);
+        let e = |id: u16, kind: ObjectKind| EntityRef::new(client, ObjectId::new(id, kind));
+        let (p, t) = (e(1, ObjectKind::Participant), e(1, ObjectKind::Topic));
+        let (pu, su) = (e(1, ObjectKind::Publisher), e(1, ObjectKind::Subscriber));
+        let (w, r) = (e(1, ObjectKind::DataWriter), e(1, ObjectKind::DataReader));
+        let empty = BinaryObject::Raw(&[0, 0]);
+        create(&mut ced, p, None, &EntityVariant::participant(Representation::Binary(empty), 0));
+        let topic = BinaryObject::Topic(TopicBinary { topic_name: "t", type_reference: None, type_name: Some("T") });
+        create(&mut ced, t, Some(p), &EntityVariant::child(ObjectKind::Topic, Representation::Binary(topic), p.id));
+        for (g, kind) in [(pu, ObjectKind::Publisher), (su, ObjectKind::Subscriber)] {
+            create(&mut ced, g, Some(p), &EntityVariant::child(kind, Representation::Binary(empty), p.id));
+        }
+        let wb = BinaryObject::DataWriter(DataWriterBinary { topic_id: t.id, qos: None });
+        create(&mut ced, w, Some(pu), &EntityVariant::child(ObjectKind::DataWriter, Representation::Binary(wb), pu.id));
+        let rb = BinaryObject::DataReader(DataReaderBinary { topic_id: t.id, qos: None });
+        create(&mut ced, r, Some(su), &EntityVariant::child(ObjectKind::DataReader, Representation::Binary(rb), su.id));
+        // Writes and takes, every taken sample given back as the core does.
+        let cycle = |ced: &mut Ced, round: usize| {
+            ced.write_data(w, &[round as u8; 24]).expect("write");
+            let Some(Sample::Data(d)) = ced.take_sample(r) else { panic!("a sample") };
+            assert_eq!(d, [round as u8; 24]);
+            ced.recycle_sample(Sample::Data(d));
+        };
+        for round in 0..2 * DEFAULT_RING_SIZE {
+            cycle(&mut ced, round);
+        }
+        let warm = ced.sample_buffers_created();
+        assert!(warm <= DEFAULT_RING_SIZE as u64 + 2, "a ring's worth of buffers: {warm}");
+        for round in 0..10 * DEFAULT_RING_SIZE {
+            cycle(&mut ced, round);
+        }
+        assert_eq!(ced.sample_buffers_created(), warm, "no buffer created per sample once warm");
     }
 }

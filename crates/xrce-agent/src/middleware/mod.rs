@@ -170,6 +170,10 @@ pub trait Middleware {
     /// Takes the next sample for `reader`.
     fn take_sample(&mut self, reader: EntityRef) -> Option<Sample>;
 
+    /// Gives back a sample [`Self::take_sample`] returned, once the core has copied it into a message, so
+    /// its buffer can carry the next one (CED: no allocation per sample once warm). Optional.
+    fn recycle_sample(&mut self, _sample: Sample) {}
+
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
 
@@ -224,6 +228,9 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     }
     fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
         (**self).take_sample(reader)
+    }
+    fn recycle_sample(&mut self, sample: Sample) {
+        (**self).recycle_sample(sample);
     }
     fn set_waker(&mut self, waker: Waker) {
         (**self).set_waker(waker);
