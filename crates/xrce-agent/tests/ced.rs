@@ -418,3 +418,22 @@ fn a_batch_of_writes_reaches_a_packing_reader_in_one_message() {
         assert_eq!(with_data, if pack { 1 } else { 8 }, "messages carrying the 8 samples, pack {pack}");
     }
 }
+
+/// A receive batch longer than a CED topic's 16 samples loses nothing for a best-effort reader: the core
+/// serves readers every few writes within the batch (a regression of batch delivery, seen at 150k/s).
+#[test]
+fn a_long_batch_of_writes_loses_nothing_for_a_best_effort_reader() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "long", "long");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    h.send(SUB, &s.read(reader, 0x01, unlimited()));
+    // 32 best-effort writes arrive together: one full `recvmmsg` batch of the UDP shell.
+    for i in 0..32u32 {
+        let m = p.write(false, writer, &i.to_le_bytes());
+        h.core.handle_datagram(PUB, &m, h.now);
+    }
+    h.drain();
+    let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+    assert_eq!(got, (0..32).collect::<Vec<_>>());
+}

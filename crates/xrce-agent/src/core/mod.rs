@@ -29,6 +29,10 @@ use session::ProxyClient;
 
 use crate::middleware::{EntityRef, Middleware};
 
+/// Samples written within one receive batch before readers are served anyway (see
+/// [`AgentCore::handle_datagram`]): half the 16 samples a CED topic keeps for best-effort readers.
+pub const PUMP_AFTER_WRITES: usize = 8;
+
 /// A message for the shell to send.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Transmit<E> {
@@ -72,6 +76,9 @@ pub struct AgentCore<E, M> {
     /// Datagrams were handled since the last pump: samples are delivered (and held-back input retried) once
     /// per batch, by the next [`Self::poll_transmit`], so one message can carry several samples.
     pump_deferred: bool,
+    /// Samples written since the last pump: past [`PUMP_AFTER_WRITES`] the pump runs within the batch, so a
+    /// best-effort reader (whose CED topic keeps 16 samples) loses nothing to a long batch.
+    writes_since_pump: usize,
     /// Reliable input streams holding a message back until the middleware can take its writes.
     blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
     /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
@@ -119,6 +126,7 @@ where
             heartbeat_due: None,
             pump_needed: false,
             pump_deferred: false,
+            writes_since_pump: 0,
             blocked: Vec::new(),
             acks_due: Vec::new(),
             pumping: false,
@@ -174,7 +182,8 @@ where
     }
 
     /// Handles one received message from `from`. Its samples reach readers at the end of the batch (the next
-    /// [`Self::poll_transmit`] or [`Self::end_batch`]), so several can share one message.
+    /// [`Self::poll_transmit`] or [`Self::end_batch`]), so several can share one message, or sooner once
+    /// [`PUMP_AFTER_WRITES`] samples wait.
     pub fn handle_datagram(&mut self, from: E, bytes: &[u8], now: Instant) {
         self.stats.datagrams_in = self.stats.datagrams_in.saturating_add(1);
         if self.wall_anchor.is_none() {
@@ -183,6 +192,9 @@ where
         self.last_now = Some(now);
         self.process_datagram(from, bytes, now);
         self.pump_deferred = true;
+        if self.writes_since_pump >= PUMP_AFTER_WRITES {
+            self.pump_and_retry(now);
+        }
     }
 
     /// Runs the delivery deferred by [`Self::handle_datagram`] (also done by [`Self::poll_transmit`]).
@@ -197,6 +209,7 @@ where
     /// Delivers samples, then retries held-back reliable input streams while that makes progress.
     fn pump_and_retry(&mut self, now: Instant) {
         self.pump_deferred = false;
+        self.writes_since_pump = 0;
         for _ in 0..4 {
             if self.pump_needed {
                 self.pump_reads(now);

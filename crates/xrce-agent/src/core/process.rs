@@ -705,6 +705,7 @@ where
             return Flow::Continue;
         }
         self.pump_needed = true;
+        self.writes_since_pump = self.writes_since_pump.saturating_add(1);
         let entity = EntityRef::new(key, id);
         let result = match id.kind() {
             ObjectKind::DataWriter => self.middleware.write_data(entity, data.data),
