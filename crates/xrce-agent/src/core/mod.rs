@@ -79,6 +79,8 @@ pub struct AgentCore<E, M> {
     /// Samples written since the last pump: past [`PUMP_AFTER_WRITES`] the pump runs within the batch, so a
     /// best-effort reader (whose CED topic keeps 16 samples) loses nothing to a long batch.
     writes_since_pump: usize,
+    /// ACKNACKs at the front of `transmits` that [`Self::poll_acknack`] may still yield.
+    acks_at_front: usize,
     /// Reliable input streams holding a message back until the middleware can take its writes.
     blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
     /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
@@ -127,6 +129,7 @@ where
             pump_needed: false,
             pump_deferred: false,
             writes_since_pump: 0,
+            acks_at_front: 0,
             blocked: Vec::new(),
             acks_due: Vec::new(),
             pumping: false,
@@ -254,12 +257,33 @@ where
         self.pump_and_retry(now);
     }
 
+    /// The ACKNACKs owed for the reliable messages handled so far, one at a time, before the batch's samples
+    /// are delivered: a shell can send them ahead of the rest, so a publisher whose history is full gets its
+    /// slots back without waiting for the deliveries to be built.
+    pub fn poll_acknack(&mut self) -> Option<Transmit<E>> {
+        if !self.acks_due.is_empty() {
+            let before = self.transmits.len();
+            self.flush_acknacks();
+            self.acks_at_front += self.transmits.len().saturating_sub(before);
+        }
+        if self.acks_at_front == 0 {
+            return None;
+        }
+        self.acks_at_front -= 1;
+        let t = self.transmits.pop_front();
+        if self.transmits.is_empty() {
+            self.open_be = None;
+        }
+        t
+    }
+
     /// The next message to send.
     pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
         self.end_batch();
         if !self.acks_due.is_empty() {
             self.flush_acknacks();
         }
+        self.acks_at_front = self.acks_at_front.saturating_sub(1);
         let t = self.transmits.pop_front();
         if self.transmits.is_empty() {
             self.open_be = None;

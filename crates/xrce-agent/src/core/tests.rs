@@ -61,3 +61,24 @@ fn heartbeat_before_any_message_of_a_reliable_stream_is_acknacked() {
     core.handle_datagram(7, &encode(&header, &Submessage::AckNack(ack)), now);
     assert_eq!(acknacks(&mut core), vec![]);
 }
+
+#[test]
+fn acknacks_can_be_taken_before_the_batch_is_delivered() {
+    use xrce_proto::submessage::{DataFormat, DataPayload};
+    use xrce_proto::{BaseObjectRequest, ObjectId, ObjectKind, RequestId};
+    let mut core = core_with(CoreConfig::default());
+    let now = Instant::now();
+    core.handle_datagram(7, &create_client(0xAABB_CCDD), now);
+    while core.poll_transmit().is_some() {}
+    // A reliable WRITE_DATA to an unknown writer: it is acknowledged all the same (the stream advanced).
+    let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
+    let request = BaseObjectRequest { request_id: RequestId(1), object_id: ObjectId::new(9, ObjectKind::DataWriter) };
+    let write = Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data: &[1, 2, 3, 4] });
+    core.handle_datagram(7, &encode(&header, &write), now);
+    let early = core.poll_acknack().expect("an ACKNACK is owed");
+    let (_, subs) = message::parse(&early.data).expect("header");
+    let kinds: Vec<_> = subs.flatten().map(|raw| raw.decode().map(|s| matches!(s, Submessage::AckNack(_)))).collect();
+    assert_eq!(kinds, vec![Ok(true)]);
+    assert!(core.poll_acknack().is_none(), "one ACKNACK per stream");
+    assert_eq!(acknacks(&mut core), vec![], "and it is not sent twice");
+}
