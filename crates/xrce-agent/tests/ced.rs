@@ -11,6 +11,21 @@ use xrce_proto::{ObjectId, ObjectKind};
 const PUB: u16 = 1;
 const SUB: u16 = 2;
 
+/// The `u32` counters the subscriber received, in order.
+fn counters(h: &Harness) -> Vec<u32> {
+    h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect()
+}
+
+/// Writes `0..n` as one receive batch of the UDP shell (no delivery in between), then runs the exchange.
+fn write_batch(h: &mut Harness, p: &mut Client, reliable: bool, n: u32) {
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    for i in 0..n {
+        let m = p.write(reliable, writer, &i.to_le_bytes());
+        h.core.handle_datagram(PUB, &m, h.now);
+    }
+    h.drain();
+}
+
 fn setup_pubsub(h: &mut Harness, topic_pub: &str, topic_sub: &str) -> (Client, Client) {
     let mut p = Client::new(0x1111_1111);
     let mut s = Client::new(0x2222_2222);
@@ -37,7 +52,7 @@ fn two_clients_pubsub_reliable_and_best_effort() {
     for i in 0..40u32 {
         h.send(PUB, &p.write(i % 2 == 0, writer, &i.to_le_bytes()));
     }
-    let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+    let got = counters(&h);
     assert_eq!(got, (0..40).collect::<Vec<_>>());
     // Best-effort delivery stream.
     h.send(SUB, &s.read(reader, 0x01, unlimited()));
@@ -272,7 +287,7 @@ fn slow_reliable_reader_holds_the_writer_back_without_loss() {
             break;
         }
     }
-    let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+    let got = counters(&h);
     assert_eq!(got, (0..total as u32).collect::<Vec<_>>());
 }
 
@@ -296,7 +311,7 @@ fn data_is_packed_only_when_the_client_can_read_it() {
         }
         let stream = if reliable { 0x80 } else { 0x01 };
         h.send(SUB, &s.read(ObjectId::new(1, ObjectKind::DataReader), stream, unlimited()));
-        let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+        let got = counters(&h);
         assert_eq!(got, (0..10).collect::<Vec<_>>(), "pack {pack} reliable {reliable}");
         let data_messages: Vec<usize> = h.received[&SUB]
             .iter()
@@ -393,25 +408,13 @@ fn a_reliable_reader_that_never_acknowledges_stops_holding_writers() {
 fn a_batch_of_writes_reaches_a_packing_reader_in_one_message() {
     for pack in [true, false] {
         let config = xrce_agent::core::CoreConfig { pack_data: pack, ..Default::default() };
-        let core = xrce_agent::core::AgentCore::new(
-            config,
-            xrce_agent::middleware::ced::Ced::new(std::sync::Arc::new(
-                xrce_agent::middleware::describe::FallbackProfiles,
-            )),
-        );
-        let mut h = Harness::with_core(core);
+        let mut h = Harness::with_core(common::new_core_with(config));
         let (mut p, mut s) = setup_pubsub(&mut h, "batch", "batch");
         let reader = ObjectId::new(1, ObjectKind::DataReader);
-        let writer = ObjectId::new(1, ObjectKind::DataWriter);
         h.send(SUB, &s.read(reader, 0x80, unlimited()));
         let before = h.received.get(&SUB).map_or(0, Vec::len);
-        // Eight reliable writes arrive together, as one receive batch of the UDP shell.
-        for i in 0..8u32 {
-            let m = p.write(true, writer, &i.to_le_bytes());
-            h.core.handle_datagram(PUB, &m, h.now);
-        }
-        h.drain();
-        let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+        write_batch(&mut h, &mut p, true, 8);
+        let got = counters(&h);
         assert_eq!(got, (0..8).collect::<Vec<_>>(), "pack {pack}");
         let with_data =
             h.received[&SUB][before..].iter().filter(|r| r.subs.iter().any(|o| matches!(o, Out::Data { .. }))).count();
@@ -426,14 +429,9 @@ fn a_long_batch_of_writes_loses_nothing_for_a_best_effort_reader() {
     let mut h = Harness::new();
     let (mut p, mut s) = setup_pubsub(&mut h, "long", "long");
     let reader = ObjectId::new(1, ObjectKind::DataReader);
-    let writer = ObjectId::new(1, ObjectKind::DataWriter);
     h.send(SUB, &s.read(reader, 0x01, unlimited()));
-    // 32 best-effort writes arrive together: one full `recvmmsg` batch of the UDP shell.
-    for i in 0..32u32 {
-        let m = p.write(false, writer, &i.to_le_bytes());
-        h.core.handle_datagram(PUB, &m, h.now);
-    }
-    h.drain();
-    let got: Vec<u32> = h.data(SUB).iter().map(|d| u32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+    // 32 best-effort writes: one full `recvmmsg` batch of the UDP shell.
+    write_batch(&mut h, &mut p, false, 32);
+    let got = counters(&h);
     assert_eq!(got, (0..32).collect::<Vec<_>>());
 }

@@ -131,11 +131,7 @@ fn fragment_floods_are_bounded() {
 #[test]
 fn many_clients_are_bounded() {
     let config = xrce_agent::core::CoreConfig { max_clients: 8, ..Default::default() };
-    let core = xrce_agent::core::AgentCore::new(
-        config,
-        xrce_agent::middleware::ced::Ced::new(std::sync::Arc::new(xrce_agent::middleware::describe::FallbackProfiles)),
-    );
-    let mut h = Harness::with_core(core);
+    let mut h = Harness::with_core(common::new_core_with(config));
     for i in 0..20u32 {
         h.send(1000 + i as u16, &create_client_msg(0x100 + i, 0x81));
     }

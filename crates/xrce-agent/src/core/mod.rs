@@ -262,27 +262,24 @@ where
     /// slots back without waiting for the deliveries to be built.
     pub fn poll_acknack(&mut self) -> Option<Transmit<E>> {
         if !self.acks_due.is_empty() {
-            let before = self.transmits.len();
-            self.flush_acknacks();
-            self.acks_at_front += self.transmits.len().saturating_sub(before);
+            self.acks_at_front += self.flush_acknacks();
         }
         if self.acks_at_front == 0 {
             return None;
         }
-        self.acks_at_front -= 1;
-        let t = self.transmits.pop_front();
-        if self.transmits.is_empty() {
-            self.open_be = None;
-        }
-        t
+        self.pop_transmit()
     }
 
     /// The next message to send.
     pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
         self.end_batch();
         if !self.acks_due.is_empty() {
-            self.flush_acknacks();
+            self.acks_at_front += self.flush_acknacks();
         }
+        self.pop_transmit()
+    }
+
+    fn pop_transmit(&mut self) -> Option<Transmit<E>> {
         self.acks_at_front = self.acks_at_front.saturating_sub(1);
         let t = self.transmits.pop_front();
         if self.transmits.is_empty() {

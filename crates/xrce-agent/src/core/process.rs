@@ -248,7 +248,8 @@ where
 
     /// Sends the scheduled ACKNACKs.
     /// ACKNACKs go ahead of the queued DATA: they are small and let publishers write again sooner.
-    pub(super) fn flush_acknacks(&mut self) {
+    /// Queues the ACKNACKs owed, ahead of everything already queued; how many.
+    pub(super) fn flush_acknacks(&mut self) -> usize {
         let before = self.pushes;
         for (key, stream) in std::mem::take(&mut self.acks_due) {
             let ack = self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
@@ -258,6 +259,7 @@ where
         }
         let added = usize::try_from(self.pushes.wrapping_sub(before)).unwrap_or(usize::MAX).min(self.transmits.len());
         self.transmits.rotate_right(added);
+        added
     }
 
     /// CREATE_CLIENT and GET_INFO outside a session (header session id 0x00 or 0x80).

@@ -27,7 +27,7 @@ use xrce_proto::types::{Guid, SequenceNumber};
 use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
 
 use super::describe::{describe, Description, ProfileSource, TopicRef};
-use super::{Creation, EntityRef, Middleware, MiddlewareError, Sample};
+use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample};
 
 /// Samples kept per topic and requests per service (eProsima's value).
 pub const DEFAULT_RING_SIZE: usize = 16;
@@ -149,6 +149,13 @@ impl SpareBuffers {
         }
     }
 
+    /// A copy of `data` in a reused buffer.
+    fn copy_of(&mut self, data: &[u8]) -> Vec<u8> {
+        let mut buf = self.get(data.len());
+        buf.extend_from_slice(data);
+        buf
+    }
+
     fn put(&mut self, mut buf: Vec<u8>) {
         if self.spare.len() < Self::MAX && buf.capacity() <= Self::MAX_CAPACITY {
             buf.clear();
@@ -167,9 +174,8 @@ pub struct Ced {
     spare: SpareBuffers,
     services: HashMap<TopicKey, Ring<PendingRequest>>,
     entities: HashMap<EntityRef, Entity>,
-    /// Entities per client, so deleting a client whose entities are already gone (the usual case: the core
-    /// deletes them one by one first) does not scan the whole registry.
-    owned: HashMap<ClientKey, u32>,
+    /// Entities per client (see [`EntityCounts`]).
+    owned: EntityCounts,
     forced_drops: u64,
 }
 
@@ -221,7 +227,7 @@ impl Ced {
             spare: SpareBuffers::default(),
             services: HashMap::new(),
             entities: HashMap::new(),
-            owned: HashMap::new(),
+            owned: EntityCounts::default(),
             forced_drops: 0,
         }
     }
@@ -400,7 +406,7 @@ impl Middleware for Ced {
         }
         match self.entities.insert(creation.entity, built) {
             Some(old) => self.release(old),
-            None => *self.owned.entry(creation.entity.client).or_default() += 1,
+            None => self.owned.added(creation.entity.client),
         }
         Ok(())
     }
@@ -423,20 +429,20 @@ impl Middleware for Ced {
         self.unpin(entity);
         let old =
             self.entities.remove(&entity).ok_or_else(|| MiddlewareError::UnknownReference(format!("{entity:?}")))?;
-        self.disown(entity.client);
+        self.owned.removed(entity.client);
         self.release(old);
         Ok(())
     }
 
     fn delete_client(&mut self, client: ClientKey) {
-        if !self.owned.contains_key(&client) {
+        if !self.owned.holds_any(client) {
             return;
         }
         let mine: Vec<EntityRef> = self.entities.keys().filter(|e| e.client == client).copied().collect();
         for e in mine {
             self.unpin(e);
             if let Some(old) = self.entities.remove(&e) {
-                self.disown(client);
+                self.owned.removed(client);
                 self.release(old);
             }
         }
@@ -450,8 +456,7 @@ impl Middleware for Ced {
         let capacity = self.ring_size;
         let pin = self.pin(&key);
         if let Some(ring) = self.topics.get_mut(&key) {
-            let mut buf = self.spare.get(data.len());
-            buf.extend_from_slice(data);
+            let buf = self.spare.copy_of(data);
             let spare = &mut self.spare;
             if ring.push(buf, capacity, pin, |old| spare.put(old)) {
                 self.forced_drops = self.forced_drops.saturating_add(1);
@@ -563,9 +568,7 @@ impl Middleware for Ced {
             Entity::Reader { key, cursor } => {
                 let (seq, data) = topics.get(key)?.at_or_after(*cursor)?;
                 *cursor = seq + 1;
-                let mut buf = spare.get(data.len());
-                buf.extend_from_slice(data);
-                Some(Sample::Data(buf))
+                Some(Sample::Data(spare.copy_of(data)))
             }
             Entity::Replier { key, cursor } => {
                 let (seq, (identity, data)) = services.get(key)?.at_or_after(*cursor)?;
@@ -581,15 +584,6 @@ impl Middleware for Ced {
 }
 
 impl Ced {
-    fn disown(&mut self, client: ClientKey) {
-        if let Some(n) = self.owned.get_mut(&client) {
-            *n = n.saturating_sub(1);
-            if *n == 0 {
-                self.owned.remove(&client);
-            }
-        }
-    }
-
     fn release(&mut self, old: Entity) {
         match old {
             Entity::Topic { key, .. } | Entity::Writer { key } | Entity::Reader { key, .. } => {

@@ -61,7 +61,7 @@ use xrce_proto::types::{Guid, SequenceNumber};
 use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
 
 use super::describe::{Description, ProfileSource, TopicRef};
-use super::{Creation, EntityRef, Middleware, MiddlewareError, Sample, Waker};
+use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample, Waker};
 use crate::profile::{self, EntityProfile};
 
 /// How many times a reliable write is retried when the DDS writer's send window stays full for its
@@ -213,9 +213,8 @@ pub struct Dds {
     bridge: Arc<DdsBridge>,
     /// Boxed nodes: the table's spare capacity then costs a pointer per slot, not a whole node.
     entities: HashMap<EntityRef, Box<Node>>,
-    /// Entities per client, so deleting a client whose entities are already gone (the usual case: the core
-    /// deletes them one by one first) does not scan the whole registry.
-    owned: HashMap<ClientKey, u32>,
+    /// Entities per client (see [`EntityCounts`]).
+    owned: EntityCounts,
     waker: Option<Waker>,
     /// Datareaders whose samples must not be lost: they hold writers back (see the module documentation).
     pinned: HashSet<EntityRef>,
@@ -363,7 +362,14 @@ impl Dds {
 
     /// A DDS middleware on an existing bridge (its participants are shared with whoever else holds it).
     pub fn with_bridge(profiles: Arc<dyn ProfileSource>, bridge: Arc<DdsBridge>) -> Self {
-        Self { profiles, bridge, entities: HashMap::new(), owned: HashMap::new(), waker: None, pinned: HashSet::new() }
+        Self {
+            profiles,
+            bridge,
+            entities: HashMap::new(),
+            owned: EntityCounts::default(),
+            waker: None,
+            pinned: HashSet::new(),
+        }
     }
 
     /// The bridge (DDS participants alive, domain resolution).
@@ -604,17 +610,6 @@ fn spec_from_binary(b: BinaryObject<'_>) -> Result<Spec, MiddlewareError> {
     })
 }
 
-impl Dds {
-    fn disown(&mut self, client: ClientKey) {
-        if let Some(n) = self.owned.get_mut(&client) {
-            *n = n.saturating_sub(1);
-            if *n == 0 {
-                self.owned.remove(&client);
-            }
-        }
-    }
-}
-
 impl Middleware for Dds {
     fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
         let spec = self.spec_of(creation)?;
@@ -626,7 +621,7 @@ impl Middleware for Dds {
             q.set_waker(Some(Arc::clone(w)));
         }
         if self.entities.insert(creation.entity, Box::new(node)).is_none() {
-            *self.owned.entry(creation.entity.client).or_default() += 1;
+            self.owned.added(creation.entity.client);
         }
         Ok(())
     }
@@ -642,12 +637,12 @@ impl Middleware for Dds {
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
         self.pinned.remove(&entity);
         self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
-        self.disown(entity.client);
+        self.owned.removed(entity.client);
         Ok(())
     }
 
     fn delete_client(&mut self, client: ClientKey) {
-        if self.owned.remove(&client).is_none() {
+        if !self.owned.forget(client) {
             return;
         }
         self.pinned.retain(|e| e.client != client);

@@ -61,6 +61,38 @@ pub struct Creation<'a> {
     pub endian: Endianness,
 }
 
+/// How many entities each client holds in a middleware's registry, so deleting a client whose entities are
+/// already gone (the usual case: the core deletes them one by one first) costs no scan of the registry.
+#[derive(Debug, Default)]
+pub(crate) struct EntityCounts(std::collections::HashMap<ClientKey, u32>);
+
+impl EntityCounts {
+    /// `client` gained an entity.
+    pub(crate) fn added(&mut self, client: ClientKey) {
+        *self.0.entry(client).or_default() += 1;
+    }
+
+    /// `client` lost an entity.
+    pub(crate) fn removed(&mut self, client: ClientKey) {
+        if let Some(n) = self.0.get_mut(&client) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                self.0.remove(&client);
+            }
+        }
+    }
+
+    /// Whether `client` holds any entity.
+    pub(crate) fn holds_any(&self, client: ClientKey) -> bool {
+        self.0.contains_key(&client)
+    }
+
+    /// Forgets `client` (all its entities go at once); whether it held any.
+    pub(crate) fn forget(&mut self, client: ClientKey) -> bool {
+        self.0.remove(&client).is_some()
+    }
+}
+
 /// Why a middleware refused an operation; the core maps it to a STATUS code.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum MiddlewareError {

@@ -121,7 +121,11 @@ struct SimStream {
 pub type TestCore = AgentCore<u16, Ced>;
 
 pub fn new_core() -> TestCore {
-    AgentCore::new(CoreConfig::default(), Ced::new(Arc::new(FallbackProfiles)))
+    new_core_with(CoreConfig::default())
+}
+
+pub fn new_core_with(config: CoreConfig) -> TestCore {
+    AgentCore::new(config, Ced::new(Arc::new(FallbackProfiles)))
 }
 
 /// Drives a core as well-behaved clients would: acknowledges the agent's reliable messages (unless told not
