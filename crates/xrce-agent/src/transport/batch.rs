@@ -1,6 +1,14 @@
 //! Batched UDP I/O for the UDP shell: on Linux one `recvmmsg` takes up to [`BATCH`] queued datagrams and one
 //! `sendmmsg` sends up to [`BATCH`] messages (through `nix`'s safe wrappers); elsewhere one datagram per
 //! system call. Buffers are allocated once.
+//!
+//! A *train* (consecutive messages to one peer, all of one size but the last, which may be shorter: the
+//! fragments of a large sample, or equal-size samples to a subscriber that does not take packed messages)
+//! goes out as one UDP GSO send (`UDP_SEGMENT`): the kernel walks its stack once and cuts the datagrams at
+//! the end, so the peer receives exactly the datagrams it would otherwise. A kernel or device without GSO
+//! refuses the first train; the socket then falls back to plain sends for good. A segment larger than the
+//! path's MTU is refused too (`EMSGSIZE`, `EINVAL` before Linux 6, e.g. 4 KiB datagrams over Ethernet, which plain sends fragment at
+//! the IP layer): trains are then kept to segments below that size.
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -115,8 +123,44 @@ impl RecvBatch {
     }
 }
 
+/// Fewest messages worth a GSO send.
+pub const MIN_TRAIN: usize = 2;
+/// Most datagrams the kernel cuts from one GSO send (`UDP_MAX_SEGMENTS`).
+pub const MAX_TRAIN: usize = 64;
+/// Most bytes in one GSO send (an IP datagram's payload, less the UDP header).
+pub const MAX_TRAIN_BYTES: usize = 65_507;
+
+/// How many messages from the start of `msgs` form a train: same destination, every one `len` bytes
+/// long but the last, which may be shorter; at most [`MAX_TRAIN`] messages and [`MAX_TRAIN_BYTES`], and
+/// segments of at most `max_segment` bytes.
+pub fn train_len<E: PartialEq>(msgs: &[Transmit<E>], max_segment: usize) -> usize {
+    let Some(first) = msgs.first() else { return 0 };
+    let segment = first.data.len();
+    if segment == 0 || segment > max_segment {
+        return 1;
+    }
+    let mut total = 0usize;
+    let mut n = 0;
+    for t in msgs.iter().take(MAX_TRAIN) {
+        let len = t.data.len();
+        if t.to != first.to || len > segment || len == 0 || total + len > MAX_TRAIN_BYTES {
+            break;
+        }
+        total += len;
+        n += 1;
+        if len < segment {
+            break;
+        }
+    }
+    n
+}
+
 /// Send state reused between batches.
 pub struct SendBatch {
+    /// Whether trains go out as GSO sends (cleared when the kernel cannot segment).
+    gso: bool,
+    /// Largest segment tried in a train (lowered when a path's MTU refuses one).
+    max_segment: usize,
     #[cfg(target_os = "linux")]
     headers: nix::sys::socket::MultiHeaders<nix::sys::socket::SockaddrStorage>,
     #[cfg(target_os = "linux")]
@@ -139,6 +183,8 @@ impl SendBatch {
     /// Empty state.
     pub fn new() -> Self {
         Self {
+            gso: cfg!(target_os = "linux"),
+            max_segment: MAX_TRAIN_BYTES,
             #[cfg(target_os = "linux")]
             headers: nix::sys::socket::MultiHeaders::preallocate(BATCH, None),
             #[cfg(target_os = "linux")]
@@ -146,8 +192,81 @@ impl SendBatch {
         }
     }
 
-    /// Sends every message; a message the kernel refuses is logged and skipped.
+    /// Without GSO: every message is sent as its own datagram.
+    pub fn without_gso() -> Self {
+        Self { gso: false, ..Self::new() }
+    }
+
+    /// Whether trains go out as GSO sends.
+    pub fn uses_gso(&self) -> bool {
+        self.gso
+    }
+
+    /// Sends every message, in order, trains as GSO sends; a message the kernel refuses is logged and
+    /// skipped.
     pub fn send(&mut self, socket: &UdpSocket, msgs: &[Transmit<SocketAddr>]) {
+        let mut plain_from = 0;
+        let mut i = 0;
+        while let Some(rest) = msgs.get(i..).filter(|r| !r.is_empty()) {
+            let n = if self.gso { train_len(rest, self.max_segment) } else { 1 };
+            if n < MIN_TRAIN {
+                i += 1;
+                continue;
+            }
+            self.send_plain(socket, msgs.get(plain_from..i).unwrap_or(&[]));
+            let train = rest.get(..n).unwrap_or(&[]);
+            if !self.send_train(socket, train) {
+                self.send_plain(socket, train);
+            }
+            i += n;
+            plain_from = i;
+        }
+        self.send_plain(socket, msgs.get(plain_from..).unwrap_or(&[]));
+    }
+
+    /// Sends a train as one GSO send; false if it was not sent (GSO is then off for good when the kernel
+    /// does not support it).
+    #[cfg(target_os = "linux")]
+    fn send_train(&mut self, socket: &UdpSocket, train: &[Transmit<SocketAddr>]) -> bool {
+        use nix::errno::Errno;
+        use nix::sys::socket::{sendmsg, ControlMessage, MsgFlags, SockaddrStorage};
+        use std::io::IoSlice;
+        use std::os::fd::AsRawFd;
+
+        let (Some(first), Ok(segment)) = (train.first(), u16::try_from(train.first().map_or(0, |t| t.data.len())))
+        else {
+            return false;
+        };
+        let mut it = train.iter();
+        let iovs: [IoSlice<'_>; MAX_TRAIN] =
+            std::array::from_fn(|_| IoSlice::new(it.next().map_or(&[][..], |t| t.data.as_slice())));
+        let iovs = iovs.get(..train.len()).unwrap_or(&[]);
+        let to = SockaddrStorage::from(first.to);
+        let cmsgs = [ControlMessage::UdpGsoSegments(&segment)];
+        match sendmsg(socket.as_raw_fd(), iovs, &cmsgs, MsgFlags::empty(), Some(&to)) {
+            Ok(_) => true,
+            // Linux 6.x says EMSGSIZE, older kernels EINVAL.
+            Err(Errno::EMSGSIZE | Errno::EINVAL) => {
+                tracing::debug!(peer = %first.to, segment, "GSO segment refused: trains kept below that size");
+                self.max_segment = usize::from(segment).saturating_sub(1);
+                false
+            }
+            Err(e @ (Errno::EIO | Errno::ENOPROTOOPT | Errno::EOPNOTSUPP)) => {
+                tracing::info!("UDP segmentation offload refused ({e}): sending one datagram per system call");
+                self.gso = false;
+                false
+            }
+            Err(_) => false,
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    fn send_train(&mut self, _socket: &UdpSocket, _train: &[Transmit<SocketAddr>]) -> bool {
+        false
+    }
+
+    /// Sends every message as its own datagram; a message the kernel refuses is logged and skipped.
+    fn send_plain(&mut self, socket: &UdpSocket, msgs: &[Transmit<SocketAddr>]) {
         let mut rest = msgs;
         while !rest.is_empty() {
             match self.send_some(socket, rest) {
@@ -196,5 +315,89 @@ impl SendBatch {
             Some(t) => socket.send_to(&t.data, t.to).map(|_| 1),
             None => Ok(0),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    fn msg(to: u8, len: usize, fill: u8) -> Transmit<u8> {
+        Transmit { to, data: vec![fill; len] }
+    }
+
+    #[test]
+    fn a_train_is_equal_sizes_to_one_peer_ending_with_a_shorter_one() {
+        let msgs = [msg(1, 512, 0), msg(1, 512, 1), msg(1, 100, 2), msg(1, 512, 3)];
+        assert_eq!(train_len(&msgs, MAX_TRAIN_BYTES), 3, "the shorter message ends the train");
+        assert_eq!(train_len(&msgs, 511), 1, "segments above the known path limit");
+        let msgs = [msg(1, 512, 0), msg(2, 512, 1)];
+        assert_eq!(train_len(&msgs, MAX_TRAIN_BYTES), 1, "another peer");
+        let msgs = [msg(1, 100, 0), msg(1, 512, 1)];
+        assert_eq!(train_len(&msgs, MAX_TRAIN_BYTES), 1, "a longer message is not a segment");
+        let many: Vec<_> = (0..100).map(|i| msg(1, 16, i)).collect();
+        assert_eq!(train_len(&many, MAX_TRAIN_BYTES), MAX_TRAIN);
+        let big: Vec<_> = (0..10).map(|i| msg(1, 30_000, i)).collect();
+        assert_eq!(train_len(&big, MAX_TRAIN_BYTES), 2, "at most one IP datagram of bytes");
+        assert_eq!(train_len::<u8>(&[], MAX_TRAIN_BYTES), 0);
+        assert_eq!(train_len(&[msg(1, 0, 0), msg(1, 0, 0)], MAX_TRAIN_BYTES), 1);
+    }
+
+    /// Whatever goes out as trains, the peer receives exactly the datagrams, in order.
+    #[test]
+    fn trains_arrive_as_the_same_datagrams_in_order() {
+        let receiver = UdpSocket::bind("127.0.0.1:0").unwrap();
+        receiver.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        let to = receiver.local_addr().unwrap();
+        let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let elsewhere = UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+        let mut sizes = vec![512, 512, 512, 77, 512, 30, 30, 30, 30, 1200, 1200, 1200];
+        sizes.extend(std::iter::repeat_n(16, 70));
+        let mut msgs = Vec::new();
+        for (i, len) in sizes.iter().enumerate() {
+            let tag = u8::try_from(i).unwrap();
+            msgs.push(Transmit { to, data: vec![tag; *len] });
+            if i == 5 {
+                msgs.push(Transmit { to: elsewhere, data: vec![0xEE; 30] });
+            }
+        }
+        let mut gso_used = false;
+        for mut batch in [SendBatch::new(), SendBatch::without_gso()] {
+            batch.send(&sender, &msgs);
+            let mut buf = [0u8; 2048];
+            for (i, len) in sizes.iter().enumerate() {
+                let (n, _) = receiver.recv_from(&mut buf).unwrap();
+                assert_eq!(n, *len, "datagram {i}");
+                assert!(buf[..n].iter().all(|b| usize::from(*b) == i), "datagram {i} bytes");
+            }
+            if cfg!(target_os = "linux") && batch.uses_gso() {
+                gso_used = true;
+            }
+        }
+        // Loopback supports UDP segmentation offload on every Linux since 4.18.
+        assert_eq!(gso_used, cfg!(target_os = "linux"), "the trains went out as GSO sends");
+    }
+
+    /// Segments larger than the path MTU (run it in a namespace whose loopback has `mtu 1500` to see the
+    /// refusal): the train still arrives, as plain datagrams the IP layer fragments.
+    #[test]
+    fn a_train_of_segments_above_the_path_mtu_still_arrives() {
+        let receiver = UdpSocket::bind("127.0.0.1:0").unwrap();
+        receiver.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        let to = receiver.local_addr().unwrap();
+        let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let msgs: Vec<_> = (0..3u8).map(|i| Transmit { to, data: vec![i; 4000] }).collect();
+        let mut batch = SendBatch::new();
+        for _ in 0..2 {
+            batch.send(&sender, &msgs);
+            let mut buf = [0u8; 8192];
+            for i in 0..3u8 {
+                let (n, _) = receiver.recv_from(&mut buf).unwrap();
+                assert_eq!(n, 4000);
+                assert!(buf[..n].iter().all(|b| *b == i));
+            }
+        }
+        assert_eq!(batch.uses_gso(), cfg!(target_os = "linux"), "a too large segment does not turn GSO off");
     }
 }

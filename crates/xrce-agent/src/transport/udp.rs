@@ -3,7 +3,8 @@
 //! One thread: it blocks for the first datagram (or the core's next timer, or a middleware wake-up), takes
 //! every queued datagram up to a batch ([`batch`](super::batch), `recvmmsg` on Linux), runs them through the
 //! core under one lock, sends the ACKNACKs owed at once ([`AgentCore::poll_acknack`](crate::core::AgentCore::poll_acknack)),
-//! then delivers the batch's samples and sends the rest in batches (`sendmmsg`). Socket buffers are
+//! then delivers the batch's samples and sends the rest in batches (`sendmmsg`; a run of equal-size datagrams
+//! to one peer, such as the fragments of a sample, as one UDP GSO send). Socket buffers are
 //! enlarged ([`SOCKET_BUFFER`]) so bursts are queued rather than dropped while the thread is descheduled.
 //! Sent buffers go back to the core's pool: no allocation per message once warm.
 
