@@ -344,13 +344,18 @@ mod tests {
         assert_eq!(train_len(&[msg(1, 0, 0), msg(1, 0, 0)], MAX_TRAIN_BYTES), 1);
     }
 
-    /// Whatever goes out as trains, the peer receives exactly the datagrams, in order.
-    #[test]
-    fn trains_arrive_as_the_same_datagrams_in_order() {
+    /// A sender, a receiver (2 s read timeout) and the receiver's address.
+    fn loopback_pair() -> (UdpSocket, UdpSocket, std::net::SocketAddr) {
         let receiver = UdpSocket::bind("127.0.0.1:0").unwrap();
         receiver.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
         let to = receiver.local_addr().unwrap();
-        let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+        (UdpSocket::bind("127.0.0.1:0").unwrap(), receiver, to)
+    }
+
+    /// Whatever goes out as trains, the peer receives exactly the datagrams, in order.
+    #[test]
+    fn trains_arrive_as_the_same_datagrams_in_order() {
+        let (sender, receiver, to) = loopback_pair();
         let elsewhere = UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
         let mut sizes = vec![512, 512, 512, 77, 512, 30, 30, 30, 30, 1200, 1200, 1200];
         sizes.extend(std::iter::repeat_n(16, 70));
@@ -383,10 +388,7 @@ mod tests {
     /// refusal): the train still arrives, as plain datagrams the IP layer fragments.
     #[test]
     fn a_train_of_segments_above_the_path_mtu_still_arrives() {
-        let receiver = UdpSocket::bind("127.0.0.1:0").unwrap();
-        receiver.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
-        let to = receiver.local_addr().unwrap();
-        let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let (sender, receiver, to) = loopback_pair();
         let msgs: Vec<_> = (0..3u8).map(|i| Transmit { to, data: vec![i; 4000] }).collect();
         let mut batch = SendBatch::new();
         for _ in 0..2 {
