@@ -419,6 +419,9 @@ fn ceiling_cmd(a: &CeilingArgs) -> Result<(), BenchError> {
         results.push(r?);
     }
     print(&results, a.json, None);
+    if let (false, Some(idle)) = (a.json, udp_ceiling::cpu_idle_policy()) {
+        println!("cpu idle: {idle}");
+    }
     Ok(())
 }
 

@@ -45,6 +45,26 @@ pub struct CeilingResult {
     pub loss_pct: f64,
     /// Echo round-trip times in µs.
     pub echo_rtt_us: Percentiles,
+    /// How idle CPUs wait for work ([`cpu_idle_policy`]), which sets the cost of every wake-up.
+    pub cpu_idle: Option<String>,
+}
+
+/// The machine's CPU idle policy as Linux reports it: the cpuidle driver and governor and, in a KVM guest
+/// with the `haltpoll` driver, how long an idle vCPU polls before it halts (`guest_halt_poll_ns`; 0: every
+/// wake-up of an idle vCPU costs an exit to the host, tens of µs). `None` where sysfs says nothing.
+pub fn cpu_idle_policy() -> Option<String> {
+    let read = |path: &str| std::fs::read_to_string(path).ok().map(|s| s.trim().to_owned());
+    let driver = read("/sys/devices/system/cpu/cpuidle/current_driver")?;
+    let mut policy = format!("cpuidle driver {driver}");
+    if let Some(g) = read("/sys/devices/system/cpu/cpuidle/current_governor")
+        .or_else(|| read("/sys/devices/system/cpu/cpuidle/current_governor_ro"))
+    {
+        policy.push_str(&format!(", governor {g}"));
+    }
+    if let Some(ns) = read("/sys/module/haltpoll/parameters/guest_halt_poll_ns") {
+        policy.push_str(&format!(", guest_halt_poll_ns {ns}"));
+    }
+    Some(policy)
 }
 
 fn loopback_socket() -> std::io::Result<UdpSocket> {
@@ -119,6 +139,7 @@ pub fn run(cfg: &CeilingConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<Ce
         received_per_s: got as f64 / secs,
         loss_pct: if sent > 0 { 100.0 * sent.saturating_sub(got) as f64 / sent as f64 } else { 0.0 },
         echo_rtt_us,
+        cpu_idle: cpu_idle_policy(),
     })
 }
 
