@@ -18,7 +18,13 @@
 //!   immediate, as with the C client and the agent;
 //! * an ACKNACK without NACK bits only releases slots, it never resends.
 //!
-//! The HEARTBEAT timer (100 ms) stays the recovery for tail losses: the ACKNACK answering it names the gaps.
+//! Tail losses (the last messages sent, or the ACKNACK of a full window) are recovered by a HEARTBEAT, whose
+//! answer names the gaps. The C client waits 100 ms for it; here, once an acknowledgement has given a
+//! round-trip sample, the first HEARTBEAT after a send goes out a *probe timeout* later,
+//! `max(2 × smallest round trip, PROBE_FLOOR_NS)` (not srtt: a sample that waited for a lost ACKNACK would
+//! stretch it), doubling with every HEARTBEAT left unanswered by progress, up to the
+//! C client's 100 ms (measured through a 20 % lossy link: see docs/benchmarks.md). Without an estimate yet
+//! (the first messages of a session) the period is the C client's.
 //!
 //! Each slot's 4-byte length word (not on the wire, as in the C client) holds the message length (2 bytes) and
 //! 2 bytes of bookkeeping: whether the message ends with a FRAGMENT, whether it was sent and retransmitted, and
@@ -32,6 +38,9 @@ use xrce_proto::{ClientKey, MessageHeader, StreamId};
 
 /// Heartbeat period of the C client (`UCLIENT_MIN_HEARTBEAT_TIME_INTERVAL`), in nanoseconds.
 pub const HEARTBEAT_PERIOD_NS: i64 = 100_000_000;
+
+/// Shortest probe timeout: a HEARTBEAT never follows a send sooner, however short the round trip.
+pub const PROBE_FLOOR_NS: i64 = 2_000_000;
 
 /// Default floor of the interval between two retransmissions of one message, in nanoseconds.
 pub const DEFAULT_RETRANSMIT_FLOOR_NS: i64 = 20_000_000;
@@ -88,6 +97,11 @@ pub struct OutputReliable<'a> {
     chain: Option<Chain>,
     /// Smoothed round trip in microseconds (0: no sample yet).
     srtt_us: u32,
+    /// Smallest round-trip sample in microseconds (0: none yet): the probe timeout's base, because a sample
+    /// can include the wait for a lost acknowledgement and inflate `srtt`.
+    min_rtt_us: u32,
+    /// HEARTBEATs sent since the last acknowledgement that released something (backs the probe off).
+    probes: u8,
     /// Floor of the interval between two retransmissions of one message, in microseconds.
     floor_us: u32,
 }
@@ -113,6 +127,8 @@ impl<'a> OutputReliable<'a> {
             heartbeat_deadline: None,
             chain: None,
             srtt_us: 0,
+            min_rtt_us: 0,
+            probes: 0,
             floor_us: 0,
         };
         s.set_retransmit_floor(DEFAULT_RETRANSMIT_FLOOR_NS);
@@ -135,6 +151,8 @@ impl<'a> OutputReliable<'a> {
         self.heartbeat_deadline = None;
         self.chain = None;
         self.srtt_us = 0;
+        self.min_rtt_us = 0;
+        self.probes = 0;
     }
 
     /// Sets the floor of the interval between two retransmissions of one message (nanoseconds; default
@@ -158,10 +176,22 @@ impl<'a> OutputReliable<'a> {
         (i64::from(self.srtt_us).max(i64::from(self.floor_us)) * 1000).min(MAX_RETRANSMIT_INTERVAL_NS)
     }
 
+    /// How long after a send (or the last HEARTBEAT) the next HEARTBEAT goes out: `max(2 × smallest round
+    /// trip, PROBE_FLOOR_NS)` doubled per unanswered HEARTBEAT, at most [`HEARTBEAT_PERIOD_NS`]; that period
+    /// until a round trip has been sampled.
+    pub fn probe_timeout(&self) -> i64 {
+        if self.min_rtt_us == 0 {
+            return HEARTBEAT_PERIOD_NS;
+        }
+        let base = (i64::from(self.min_rtt_us) * 2000).max(PROBE_FLOOR_NS);
+        base.checked_shl(u32::from(self.probes)).unwrap_or(HEARTBEAT_PERIOD_NS).min(HEARTBEAT_PERIOD_NS)
+    }
+
     /// Folds a round-trip sample into the estimate (exponential average, gain 1/8 as in RFC 6298).
     fn rtt_sample(&mut self, sample_us: u32) {
         let r = sample_us.max(1);
         self.srtt_us = if self.srtt_us == 0 { r } else { (self.srtt_us - self.srtt_us / 8 + r / 8).max(1) };
+        self.min_rtt_us = if self.min_rtt_us == 0 { r } else { self.min_rtt_us.min(r) };
     }
 
     /// Bytes of message a slot holds (header included): the slot minus its length word.
@@ -510,7 +540,7 @@ impl<'a> OutputReliable<'a> {
         self.last_sent = s;
         self.stamp(s, now, false);
         if self.heartbeat_deadline.is_none() {
-            self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
+            self.heartbeat_deadline = Some(now + self.probe_timeout());
         }
         Some(s)
     }
@@ -523,11 +553,12 @@ impl<'a> OutputReliable<'a> {
         }
         match self.heartbeat_deadline {
             None => {
-                self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
+                self.heartbeat_deadline = Some(now + self.probe_timeout());
                 None
             }
             Some(d) if now >= d => {
-                self.heartbeat_deadline = Some(now + HEARTBEAT_PERIOD_NS);
+                self.probes = self.probes.saturating_add(1);
+                self.heartbeat_deadline = Some(now + self.probe_timeout());
                 Some((self.last_acknown.wrapping_add(1), self.last_sent))
             }
             Some(_) => None,
@@ -563,6 +594,7 @@ impl<'a> OutputReliable<'a> {
                 self.rtt_sample(u32::try_from(ms * 1000).unwrap_or(u32::MAX));
             }
             self.last_acknown = acked;
+            self.probes = 0;
             self.resend = self.resend.checked_shr(u32::from(released)).unwrap_or(0);
             self.deferred = self.deferred.checked_shr(u32::from(released)).unwrap_or(0);
             if self.deferred == 0 {
@@ -600,7 +632,7 @@ impl<'a> OutputReliable<'a> {
             self.deferred &= !self.resend;
         }
         let unacked = self.last_acknown != self.last_sent;
-        self.heartbeat_deadline = unacked.then_some(now + HEARTBEAT_PERIOD_NS);
+        self.heartbeat_deadline = unacked.then(|| now + self.probe_timeout());
     }
 
     /// Moves the deferred resends whose interval has passed to the resend set; re-arms the timer for the rest.
