@@ -13,7 +13,7 @@ pub use input_best_effort::InputBestEffort;
 pub(crate) use input_reliable::Ready as input_reliable_ready;
 pub use input_reliable::{InputReliable, Ready, Received};
 pub use output_best_effort::OutputBestEffort;
-pub use output_reliable::{OutputReliable, HEARTBEAT_PERIOD_NS};
+pub use output_reliable::{OutputReliable, HEARTBEAT_PERIOD_NS, PROBE_FLOOR_NS};
 
 use xrce_proto::submessage::{flag, id};
 use xrce_proto::MessageHeader;
