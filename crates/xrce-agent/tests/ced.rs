@@ -435,3 +435,34 @@ fn a_long_batch_of_writes_loses_nothing_for_a_best_effort_reader() {
     let got = counters(&h);
     assert_eq!(got, (0..32).collect::<Vec<_>>());
 }
+
+/// Once a subscriber has acknowledged something (a round trip is known), a DATA whose acknowledgement
+/// does not come is probed after `max(2 × min RTT, 2 ms)`, doubling while unanswered, instead of waiting for
+/// the 200 ms HEARTBEAT period.
+#[test]
+fn a_lost_tail_is_probed_within_milliseconds_once_a_round_trip_is_known() {
+    let mut h = Harness::new();
+    let (mut p, mut s) = setup_pubsub(&mut h, "t", "t");
+    let reader = ObjectId::new(1, ObjectKind::DataReader);
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    h.send(SUB, &s.read(reader, 0x80, unlimited()));
+    h.auto_ack = false;
+    h.send(PUB, &p.write(false, writer, b"x"));
+    assert_eq!(h.data(SUB).len(), 1);
+    let beats = |h: &Harness| h.outs(SUB).iter().filter(|o| matches!(o, Out::Heartbeat { stream: 0x80, .. })).count();
+    let mut seen = Vec::new();
+    for _ in 0..14 {
+        h.advance(Duration::from_millis(1));
+        seen.push(beats(&h));
+    }
+    // Probes at 2, 6 (2 + 4) and 14 ms (6 + 8).
+    assert_eq!(seen, [0, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2, 2, 3]);
+    assert_eq!(h.core.stats().tail_probes, 3);
+    // The subscriber answers: the DATA is released and probing stops.
+    h.auto_ack = true;
+    h.advance(Duration::from_millis(20));
+    h.auto_ack = false;
+    let settled = beats(&h);
+    h.advance(Duration::from_millis(150));
+    assert_eq!(beats(&h), settled, "nothing in flight, nothing probed");
+}

@@ -8,6 +8,7 @@
 
 pub mod config;
 pub mod object;
+pub mod probe;
 pub mod read;
 pub mod session;
 pub mod stream;
@@ -57,6 +58,8 @@ pub struct CoreStats {
     pub messages_dropped_out: u64,
     /// Times the shell polled the middleware after its waker fired ([`AgentCore::poll_middleware`]).
     pub middleware_polls: u64,
+    /// Tail-loss probes sent: HEARTBEATs ahead of the period ([`probe`]).
+    pub tail_probes: u64,
 }
 
 /// The agent core. See the module documentation.
@@ -72,6 +75,8 @@ pub struct AgentCore<E, M> {
     /// Reused list of messages produced while a client is borrowed.
     scratch: Vec<Vec<u8>>,
     heartbeat_due: Option<Instant>,
+    /// Tail-loss probe timers of the reliable output streams.
+    probes: probe::ProbeTimers,
     pump_needed: bool,
     /// Datagrams were handled since the last pump: samples are delivered (and held-back input retried) once
     /// per batch, by the next [`Self::poll_transmit`], so one message can carry several samples.
@@ -126,6 +131,7 @@ where
             pool: stream::BufPool::default(),
             scratch: Vec::new(),
             heartbeat_due: None,
+            probes: probe::ProbeTimers::default(),
             pump_needed: false,
             pump_deferred: false,
             writes_since_pump: 0,
@@ -236,7 +242,7 @@ where
             .flat_map(|c| c.reads.values())
             .filter_map(read::ReadTask::wake_at)
             .min();
-        [self.heartbeat_due, reads].into_iter().flatten().min()
+        [self.heartbeat_due, self.probes.next_due(), reads].into_iter().flatten().min()
     }
 
     /// Runs timers: heartbeats, liveliness probes, removal of dead clients, paced reads.
@@ -246,6 +252,7 @@ where
             self.heartbeat_due = None;
             self.heartbeat_tick(now);
         }
+        self.fire_probes(now);
         self.pump_needed = true;
         self.pump_and_retry(now);
     }
@@ -375,6 +382,31 @@ where
         let (at, since_epoch) = self.wall_anchor.unwrap_or((now, Duration::ZERO));
         let t = if now >= at { since_epoch.saturating_add(now - at) } else { since_epoch.saturating_sub(at - now) };
         xrce_proto::Time { seconds: i32::try_from(t.as_secs()).unwrap_or(i32::MAX), nanoseconds: t.subsec_nanos() }
+    }
+
+    /// Sends the tail-loss probes that are due (see [`probe`]).
+    fn fire_probes(&mut self, now: Instant) {
+        let period = self.config.heartbeat_period;
+        while let Some((due, key, sid)) = self.probes.pop_due(now) {
+            let Some(out) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_out.get_mut(&sid)) else { continue };
+            let (beat, next) = out.fire_probe(sid, due, now, period);
+            if let Some(next) = next {
+                self.probes.push(next, key, sid);
+            }
+            if let Some(hb) = beat {
+                self.stats.tail_probes = self.stats.tail_probes.saturating_add(1);
+                self.send_control(key, &xrce_proto::Submessage::Heartbeat(hb));
+            }
+        }
+    }
+
+    /// Arms the tail-loss probe of a reliable output stream that has messages in flight.
+    fn arm_probe(&mut self, key: ClientKey, sid: u8, now: Instant) {
+        let period = self.config.heartbeat_period;
+        let Some(out) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_out.get_mut(&sid)) else { return };
+        if let Some(due) = out.arm_probe(now, period) {
+            self.probes.push(due, key, sid);
+        }
     }
 
     fn arm_heartbeat(&mut self, now: Instant) {

@@ -510,7 +510,7 @@ where
                 Flow::Continue
             }
             Submessage::AckNack(ack) => {
-                self.handle_acknack(key, &ack);
+                self.handle_acknack(key, &ack, now);
                 Flow::Continue
             }
             Submessage::Heartbeat(hb) => {
@@ -766,21 +766,22 @@ where
         self.pump_needed = true;
     }
 
-    fn handle_acknack(&mut self, key: ClientKey, ack: &xrce_proto::submessage::AckNack) {
+    fn handle_acknack(&mut self, key: ClientKey, ack: &xrce_proto::submessage::AckNack, now: Instant) {
         let Some(client) = self.clients.get_mut(&key) else { return };
         let header = client.header(StreamId(ack.stream_id), 0);
         let (to, mtu) = (client.endpoint, client.pack_mtu());
         let Some(out) = client.streams.rel_out.get_mut(&ack.stream_id) else { return };
         let before = out.first_unacked();
         let mut sent = std::mem::take(&mut self.scratch);
-        out.on_acknack(ack, &mut self.pool, |m| sent.push(m));
+        out.on_acknack(ack, now, self.config.heartbeat_period, &mut self.pool, |m| sent.push(m));
         let progressed = out.first_unacked() != before;
         let repin = progressed && client.unpinned.take().is_some();
-        out.flush(&header, mtu, &mut self.pool, |m| sent.push(m));
+        out.flush(&header, mtu, Some(now), &mut self.pool, |m| sent.push(m));
         for m in sent.drain(..) {
             self.push_transmit(to, m);
         }
         self.scratch = sent;
+        self.arm_probe(key, ack.stream_id, now);
         if repin {
             self.pin_readers(key, true);
         }
@@ -815,17 +816,18 @@ where
     }
 
     /// Sends what is queued on a reliable output stream, as far as its window allows.
-    fn flush_stream(&mut self, key: ClientKey, stream: StreamId) {
+    fn flush_stream(&mut self, key: ClientKey, stream: StreamId, now: Instant) {
         let Some(client) = self.clients.get_mut(&key) else { return };
         let header = client.header(stream, 0);
         let (to, mtu) = (client.endpoint, client.pack_mtu());
         let Some(out) = client.streams.rel_out.get_mut(&stream.0) else { return };
         let mut sent = std::mem::take(&mut self.scratch);
-        out.flush(&header, mtu, &mut self.pool, |m| sent.push(m));
+        out.flush(&header, mtu, Some(now), &mut self.pool, |m| sent.push(m));
         for m in sent.drain(..) {
             self.push_transmit(to, m);
         }
         self.scratch = sent;
+        self.arm_probe(key, stream.0, now);
     }
 
     /// Delivers the samples one read task may take now. On a reliable stream samples are queued and packed
@@ -837,7 +839,7 @@ where
         self.pump_reader_inner(key, reader, reliable, now);
         self.pumping = false;
         if let Some(stream) = reliable {
-            self.flush_stream(key, stream);
+            self.flush_stream(key, stream, now);
         }
     }
 
@@ -849,7 +851,7 @@ where
                     c.streams.rel_out.get(&stream.0).map(|s| s.pending_bytes() >= c.pack_mtu() && s.has_window_room())
                 });
                 if state == Some(true) {
-                    self.flush_stream(key, stream);
+                    self.flush_stream(key, stream, now);
                 }
                 let can_take = self
                     .clients
@@ -1003,7 +1005,7 @@ where
                 // While pumping, samples wait to be packed into one message (see `pump_reader`).
                 if !self.pumping {
                     let mut sent = std::mem::take(&mut self.scratch);
-                    out.flush(&header, pack_mtu, &mut self.pool, |m| sent.push(m));
+                    out.flush(&header, pack_mtu, now, &mut self.pool, |m| sent.push(m));
                     for m in sent.drain(..) {
                         self.push_transmit(to, m);
                     }
@@ -1011,6 +1013,7 @@ where
                 }
                 if let Some(now) = now {
                     self.arm_heartbeat(now);
+                    self.arm_probe(key, stream.0, now);
                 }
             }
         }

@@ -281,6 +281,8 @@ pub struct ReliableOut {
     max_pending: usize,
     /// `first_unacked` when last checked with unacknowledged messages, and since when it has not moved.
     watch: Option<(u16, std::time::Instant)>,
+    /// Round-trip timing and tail-loss probe.
+    probe: super::probe::Probe,
 }
 
 impl ReliableOut {
@@ -295,6 +297,7 @@ impl ReliableOut {
             pending_bytes: 0,
             max_pending,
             watch: None,
+            probe: super::probe::Probe::default(),
         }
     }
 
@@ -359,10 +362,18 @@ impl ReliableOut {
         true
     }
 
-    /// Moves queued bodies into the window, stamping `header` with their sequence numbers; `send` gets
+    /// Moves queued bodies into the window, stamping `header` with their sequence numbers (and timing one
+    /// for the round trip when `now` is known); `send` gets
     /// each complete message. Consecutive bodies that are not FRAGMENTs share a message up to `mtu` bytes
     /// (each submessage 4-aligned, as every client reads them); a FRAGMENT always travels alone (spec §9.6).
-    pub fn flush(&mut self, header: &MessageHeader, mtu: usize, pool: &mut BufPool, mut send: impl FnMut(Vec<u8>)) {
+    pub fn flush(
+        &mut self,
+        header: &MessageHeader,
+        mtu: usize,
+        now: Option<std::time::Instant>,
+        pool: &mut BufPool,
+        mut send: impl FnMut(Vec<u8>),
+    ) {
         while self.in_flight.len() < usize::from(self.window) {
             let Some(body) = self.pending.pop_front() else { break };
             self.pending_bytes = self.pending_bytes.saturating_sub(body.len());
@@ -387,21 +398,36 @@ impl ReliableOut {
                 msg.extend_from_slice(&next);
                 pool.put(next);
             }
+            if let Some(now) = now {
+                self.probe.on_sent(self.next_seq, now);
+            }
             self.next_seq = self.next_seq.wrapping_add(1);
             send(pool.copy_of(&msg));
             self.in_flight.push_back(msg);
         }
     }
 
-    /// An ACKNACK from the client: release what it has, resend what it misses (selective repeat).
-    pub fn on_acknack(&mut self, ack: &AckNack, pool: &mut BufPool, mut send: impl FnMut(Vec<u8>)) {
+    /// An ACKNACK from the client: release what it has, resend what it misses (selective repeat). `period`
+    /// is the HEARTBEAT period (it caps the probe timeout).
+    pub fn on_acknack(
+        &mut self,
+        ack: &AckNack,
+        now: std::time::Instant,
+        period: std::time::Duration,
+        pool: &mut BufPool,
+        mut send: impl FnMut(Vec<u8>),
+    ) {
         let first = ack.first_unacked_seq_num;
         // Only acknowledge what was sent: an ACKNACK beyond next_seq is bogus.
         if seq_le(first, self.next_seq) {
+            let before = self.first_unacked;
             while seq_lt(self.first_unacked, first) {
                 let Some(done) = self.in_flight.pop_front() else { break };
                 pool.put(done);
                 self.first_unacked = self.first_unacked.wrapping_add(1);
+            }
+            if self.first_unacked != before {
+                self.probe.on_progress(self.first_unacked, now, period);
             }
         }
         let bitmap = ack.bitmap();
@@ -414,6 +440,7 @@ impl ReliableOut {
                 continue;
             }
             if let Some(msg) = self.in_flight.get(usize::from(seq.wrapping_sub(self.first_unacked))) {
+                self.probe.on_resent(seq);
                 send(pool.copy_of(msg));
             }
         }
@@ -438,6 +465,34 @@ impl ReliableOut {
                 std::time::Duration::ZERO
             }
         }
+    }
+
+    /// Arms the tail-loss probe if messages are in flight and it is not armed: the instant to schedule.
+    pub fn arm_probe(&mut self, now: std::time::Instant, period: std::time::Duration) -> Option<std::time::Instant> {
+        if !self.has_unacked() {
+            return None;
+        }
+        self.probe.arm(now, period)
+    }
+
+    /// The probe timer entry `due` came due: the HEARTBEAT to send, if one is owed, and the instant to
+    /// schedule next, if any (see [`super::probe::Probe::fire`]).
+    pub fn fire_probe(
+        &mut self,
+        stream_id: u8,
+        due: std::time::Instant,
+        now: std::time::Instant,
+        period: std::time::Duration,
+    ) -> (Option<Heartbeat>, Option<std::time::Instant>) {
+        match self.probe.fire(due, self.has_unacked(), now, period) {
+            Some((beat, next)) => (if beat { self.heartbeat(stream_id) } else { None }, next),
+            None => (None, None),
+        }
+    }
+
+    /// The smallest round trip sampled on this stream.
+    pub fn min_rtt(&self) -> Option<std::time::Duration> {
+        self.probe.min_rtt()
     }
 
     /// The HEARTBEAT to send for this stream, if anything is unacknowledged.
@@ -503,20 +558,21 @@ mod tests {
 
     #[test]
     fn reliable_out_window_and_retransmission() {
+        let now = std::time::Instant::now();
         let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
         let mut out = ReliableOut::new(16, 100);
         assert!(out.queue((0..20u8).map(|i| vec![i]).collect()));
         let mut sent = Vec::new();
         let mut pool = BufPool::default();
-        out.flush(&header, 5, &mut pool, |m| sent.push(m));
+        out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
         assert_eq!(sent.len(), 16);
         assert_eq!(out.heartbeat(0x80).map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((0, 15)));
         sent.clear();
         let ack = AckNack { first_unacked_seq_num: 4, nack_bitmap: [0, 1], stream_id: 0x80 };
-        out.on_acknack(&ack, &mut pool, |m| sent.push(m));
+        out.on_acknack(&ack, now, std::time::Duration::from_millis(200), &mut pool, |m| sent.push(m));
         assert_eq!(sent, vec![vec![0x81, 0x80, 4, 0, 4]]);
         sent.clear();
-        out.flush(&header, 5, &mut pool, |m| sent.push(m));
+        out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
         assert_eq!(sent.len(), 4);
     }
 
