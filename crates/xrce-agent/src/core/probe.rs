@@ -5,7 +5,7 @@
 //! stream with messages in flight also arms a *probe*: once an acknowledgement has given a round trip,
 //! a HEARTBEAT goes `max(2 × smallest round trip, PROBE_FLOOR)` after the stream last sent or made
 //! progress, doubling for every probe left unanswered, up to the period. Without a round-trip sample the probe
-//! waits the whole period, as before. The smallest sample, not an average, is the base: a sample that
+//! is left to the periodic HEARTBEAT, as before. The smallest sample, not an average, is the base: a sample that
 //! waited for a lost ACKNACK would stretch an average exactly when probes matter.
 //!
 //! Round trips are timed on one message at a time, never on a retransmitted one (Karn's rule). The timers
@@ -88,9 +88,10 @@ impl Probe {
         base.saturating_mul(1 << self.backoff.min(MAX_BACKOFF)).min(period)
     }
 
-    /// Arms the probe unless it is armed; the instant to schedule, if it was not.
+    /// Arms the probe unless it is armed, or no round trip is known yet (the periodic HEARTBEAT covers
+    /// that case, and idle sessions then hold no timer); the instant to schedule, if it was armed now.
     pub fn arm(&mut self, now: Instant, period: Duration) -> Option<Instant> {
-        if self.due.is_some() {
+        if self.due.is_some() || self.min_rtt.is_none() {
             return None;
         }
         let due = now.checked_add(self.timeout(period)).unwrap_or(now);
@@ -134,6 +135,9 @@ pub struct ProbeTimers {
 }
 
 impl ProbeTimers {
+    /// Capacity kept by an empty heap (a burst of sessions must not pin its peak).
+    const KEEP: usize = 1024;
+
     /// Schedules the probe of `stream` of client `key` at `due`.
     pub fn push(&mut self, due: Instant, key: ClientKey, stream: u8) {
         self.heap.push(Reverse((due, key, stream)));
@@ -149,7 +153,11 @@ impl ProbeTimers {
         if self.next_due()? > now {
             return None;
         }
-        self.heap.pop().map(|Reverse(e)| e)
+        let entry = self.heap.pop().map(|Reverse(e)| e);
+        if self.heap.is_empty() && self.heap.capacity() > Self::KEEP {
+            self.heap.shrink_to(Self::KEEP);
+        }
+        entry
     }
 
     /// Entries held (live and stale).
@@ -171,16 +179,17 @@ mod tests {
     const MS: Duration = Duration::from_millis(1);
 
     #[test]
-    fn probes_wait_the_period_until_a_round_trip_is_known_then_twice_the_smallest_one() {
+    fn no_probe_until_a_round_trip_is_known_then_twice_the_smallest_one() {
         let t0 = Instant::now();
         let mut p = Probe::default();
         p.on_sent(0, t0);
-        assert_eq!(p.arm(t0, PERIOD), Some(t0 + PERIOD));
-        assert_eq!(p.arm(t0, PERIOD), None, "armed once");
+        assert_eq!(p.arm(t0, PERIOD), None, "the periodic HEARTBEAT covers it");
         p.on_sent(1, t0 + MS);
         p.on_progress(1, t0 + 5 * MS, PERIOD);
         assert_eq!(p.min_rtt(), Some(5 * MS));
         assert_eq!(p.timeout(PERIOD), 10 * MS);
+        assert_eq!(p.arm(t0 + 5 * MS, PERIOD), Some(t0 + 15 * MS));
+        assert_eq!(p.arm(t0 + 5 * MS, PERIOD), None, "armed once");
         // A later, longer sample (it waited for a lost ACKNACK) does not stretch the timeout.
         p.on_sent(1, t0 + 6 * MS);
         p.on_progress(2, t0 + 150 * MS, PERIOD);
@@ -231,12 +240,10 @@ mod tests {
     }
 
     #[test]
-    fn a_probe_armed_before_the_first_round_trip_is_brought_forward() {
+    fn a_backed_off_probe_is_brought_forward_by_progress_but_not_a_steady_one() {
         let t0 = Instant::now();
         let mut p = Probe::default();
         p.on_sent(0, t0);
-        assert_eq!(p.arm(t0, PERIOD), Some(t0 + PERIOD));
-        p.on_sent(1, t0 + MS);
         p.on_progress(1, t0 + MS, PERIOD);
         assert_eq!(p.arm(t0 + MS, PERIOD), Some(t0 + 3 * MS), "2 × 1 ms");
         // Steady flow: a probe due within the timeout stays armed.
