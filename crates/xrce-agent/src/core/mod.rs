@@ -406,6 +406,12 @@ where
         let Some(out) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_out.get_mut(&sid)) else { return };
         if let Some(due) = out.arm_probe(now, period) {
             self.probes.push(due, key, sid);
+            if self.probes.len() > 4 * self.clients.len() + 1024 {
+                let clients = &self.clients;
+                self.probes.retain(|due, key, sid| {
+                    clients.get(&key).and_then(|c| c.streams.rel_out.get(&sid)).and_then(|o| o.probe_due()) == Some(due)
+                });
+            }
         }
     }
 

@@ -10,7 +10,9 @@
 //!
 //! Round trips are timed on one message at a time, never on a retransmitted one (Karn's rule). The timers
 //! of all streams live in one heap ([`ProbeTimers`]); an entry whose stream was re-armed since is stale and
-//! skipped when it comes due, so the heap holds at most one live entry per stream.
+//! skipped when it comes due, so the heap holds at most one live entry per stream; stale entries are
+//! purged when they outnumber the clients four to one (a re-arm needs an unanswered probe first, so at
+//! most one per stream per 2 ms).
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -73,6 +75,11 @@ impl Probe {
         if self.due.is_some_and(|d| d > limit) {
             self.due = None;
         }
+    }
+
+    /// When the armed probe fires, if armed.
+    pub fn due(&self) -> Option<Instant> {
+        self.due
     }
 
     /// The smallest round trip sampled so far.
@@ -158,6 +165,11 @@ impl ProbeTimers {
             self.heap.shrink_to(Self::KEEP);
         }
         entry
+    }
+
+    /// Keeps only the entries `live` accepts (drops stale ones).
+    pub fn retain(&mut self, mut live: impl FnMut(Instant, ClientKey, u8) -> bool) {
+        self.heap.retain(|Reverse((due, key, stream))| live(*due, *key, *stream));
     }
 
     /// Entries held (live and stale).
@@ -262,5 +274,10 @@ mod tests {
         assert_eq!(t.pop_due(t0 + 5 * MS).map(|e| e.1), Some(ClientKey([0, 0, 0, 2])));
         assert_eq!(t.pop_due(t0 + 5 * MS).map(|e| e.1), Some(ClientKey([0, 0, 0, 1])));
         assert!(t.is_empty());
+        for i in 0..10u8 {
+            t.push(t0 + u32::from(i) * MS, ClientKey([0, 0, 0, i]), 0x80);
+        }
+        t.retain(|_, key, _| key.0[3] % 2 == 0);
+        assert_eq!(t.len(), 5);
     }
 }

@@ -490,6 +490,11 @@ impl ReliableOut {
         }
     }
 
+    /// When this stream's tail-loss probe fires, if armed.
+    pub fn probe_due(&self) -> Option<std::time::Instant> {
+        self.probe.due()
+    }
+
     /// The smallest round trip sampled on this stream.
     pub fn min_rtt(&self) -> Option<std::time::Duration> {
         self.probe.min_rtt()
