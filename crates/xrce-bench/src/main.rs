@@ -104,6 +104,11 @@ struct ThroughputArgs {
     /// `xrce_rs_pack`, honoured by our agent only, ignored by others).
     #[arg(long)]
     no_pack: bool,
+    /// Reliable samples larger than one message use the continuous fragmented API (their fragments take
+    /// every free history slot) instead of waiting until the whole sample fits; a variant, not the
+    /// targets' method.
+    #[arg(long)]
+    continuous: bool,
     /// Repetitions of each configuration (the median run by received/s is marked).
     #[arg(long, default_value_t = 1)]
     runs: usize,
@@ -335,6 +340,7 @@ fn throughput_cmd(a: &ThroughputArgs) -> Result<(), BenchError> {
             cfg.rate = a.rate;
             cfg.window = a.window;
             cfg.pack = !a.no_pack;
+            cfg.continuous = a.continuous;
             let pb = bar(a.duration >= Duration::from_secs(2), format!("{} {payload} B run {}", cfg.mode(), run + 1));
             let r = throughput::run(&cfg, &set(&pb));
             pb.finish_and_clear();

@@ -48,6 +48,10 @@ pub struct ThroughputConfig {
     /// Subscribers ask the agent to pack several DATA per message (CREATE_CLIENT property `xrce_rs_pack`;
     /// honoured by our agent, ignored by eProsima's).
     pub pack: bool,
+    /// Reliable samples larger than one message are written with the continuous fragmented API
+    /// (`uxr_prepare_output_stream_fragmented`), whose fragments take every free slot of the history, instead
+    /// of waiting until the whole sample fits (`uxr_buffer_topic`). Not the targets' method: a variant.
+    pub continuous: bool,
     /// Run id: keys and the topic name derive from it.
     pub run: u32,
 }
@@ -69,16 +73,17 @@ impl ThroughputConfig {
             rate: None,
             window: None,
             pack: true,
+            continuous: false,
             run: crate::run_id(),
         }
     }
 
     /// The mode as printed.
     pub const fn mode(&self) -> &'static str {
-        if self.reliable {
-            "reliable"
-        } else {
-            "best-effort"
+        match (self.reliable, self.continuous) {
+            (true, false) => "reliable",
+            (true, true) => "reliable-cont",
+            (false, _) => "best-effort",
         }
     }
 }
@@ -249,6 +254,10 @@ fn subscriber(
     Ok(result)
 }
 
+/// Bytes of a WRITE_DATA message besides the sample: header (up to 8), submessage header, object id and
+/// request id.
+const MESSAGE_OVERHEAD: usize = 16;
+
 /// Writes one sample as a continuous fragmented WRITE_DATA (a sample larger than the whole history).
 fn write_fragmented(c: &mut Client<'_>, stream: StreamId, data: &[u8], give_up: Instant) -> Result<bool, BenchError> {
     let mut h = client::status_only();
@@ -342,7 +351,8 @@ fn publisher(
     let mut sample = vec![0u8; cfg.payload.max(1)];
     let publisher = u32::try_from(index).unwrap_or(u32::MAX);
     let mut h = client::status_only();
-    let mut fragmented = false;
+    // Samples that do not fit one message go through the continuous API from the start when asked to.
+    let mut fragmented = cfg.continuous && cfg.reliable && cfg.payload + MESSAGE_OVERHEAD > cfg.mtu;
     let mut seq: u32 = 0;
     let mut now = start;
     while now < end {
