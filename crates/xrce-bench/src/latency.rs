@@ -205,15 +205,23 @@ fn pinger(
         let seq = u32::try_from(n).unwrap_or(u32::MAX);
         SampleHeader { publisher: 0, seq, sent_ns: 0 }.write(&mut sample);
         let t0 = Instant::now();
-        // A reliable history may be full of unacknowledged messages: run until there is room.
-        loop {
+        // A reliable history may be full of unacknowledged messages: run until there is room. Still full
+        // after the timeout (a long loss burst on a lossy link): this ping counts as lost, the run goes on.
+        let mut written = false;
+        while !written && t0.elapsed() < cfg.timeout {
             match c.core.buffer_topic(streams.data_out, ids::WRITER, &sample) {
-                Ok(_) => break,
-                Err(xrce_client::Error::WouldBlock) if t0.elapsed() < cfg.timeout => {
+                Ok(_) => written = true,
+                Err(xrce_client::Error::WouldBlock) => {
                     c.poll(&mut h, Some(Duration::from_millis(1)))?;
                 }
                 Err(e) => return Err(e.into()),
             }
+        }
+        if !written {
+            if n >= cfg.warmup {
+                lost += 1;
+            }
+            continue;
         }
         c.flush()?;
         let deadline = t0 + cfg.timeout;
