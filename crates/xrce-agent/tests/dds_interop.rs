@@ -159,6 +159,10 @@ fn xrce_client_publishes_to_fastdds_and_cyclone() {
     let _agent = AgentProcess::start(18_901);
     let cyc = spawn(python("hello_cyclone.py", &["sub", "60", "10"]));
     let fdds = spawn(fastdds(&["sub", "60", "10"]));
+    // The peers' participants first, then the agent's. Started within the same milliseconds, Fast DDS could
+    // end up with the port pair of two participant ids (user unicast 7411 of id 0, metatraffic 7412 of id 1,
+    // the agent's RustDDS participant holding 7410) and then received nothing in 60 s (1 run in 4 here).
+    std::thread::sleep(Duration::from_secs(1));
     let stop = Arc::new(AtomicBool::new(false));
     let publisher = xrce_publisher(18_901, "HelloWorldTopic", false, stop.clone());
     let (ok_c, out_c) = finish(cyc, "cyclone sub");
@@ -225,6 +229,8 @@ fn fastdds_and_cyclone_publish_to_the_xrce_client() {
 fn keyed_samples_from_the_xrce_client_are_distinct_instances_for_cyclone() {
     let _agent = AgentProcess::start(18_903);
     let cyc = spawn(python("keyed_cyclone.py", &["60", "5"]));
+    // The peer's participant first (see xrce_client_publishes_to_fastdds_and_cyclone).
+    std::thread::sleep(Duration::from_secs(1));
     let stop = Arc::new(AtomicBool::new(false));
     let publisher = xrce_publisher(18_903, "HelloWorldKeyedTopic", true, stop.clone());
     let (_, out) = finish(cyc, "cyclone keyed sub");
