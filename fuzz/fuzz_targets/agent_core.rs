@@ -52,31 +52,19 @@ fuzz_target!(|data: &[u8]| {
     let config = CoreConfig { max_clients: 16, max_reassembly_size: 1 << 16, ..CoreConfig::default() };
     let mut core = AgentCore::new(config, Ced::new(Arc::new(FallbackProfiles)));
     setup(&mut core, now);
-    let mut rest = data;
-    while let [op, lo, hi, tail @ ..] = rest {
-        let len = usize::from(u16::from_le_bytes([*lo, *hi])).min(tail.len());
-        let (bytes, next) = tail.split_at(len);
-        rest = next;
+    for (op, bytes) in xrce_fuzz::ops(data) {
         if op & 4 != 0 {
-            now += Duration::from_millis(u64::from(*op));
+            now += Duration::from_millis(u64::from(op));
             core.handle_timeout(now);
         }
         let ep = op & 3;
         if op & 8 != 0 {
-            let mut m = vec![0x81, bytes.first().copied().unwrap_or(0), bytes.get(1).copied().unwrap_or(0), 0];
-            m.extend_from_slice(bytes.get(2..).unwrap_or(&[]));
-            core.handle_datagram(ep, &m, now);
+            core.handle_datagram(ep, &xrce_fuzz::in_session(bytes), now);
         } else {
             core.handle_datagram(ep, bytes, now);
         }
         while let Some(t) = core.poll_transmit() {
-            let (_, subs) = xrce_proto::message::parse(&t.data).expect("agent header");
-            for s in subs {
-                let s = s.expect("agent framing");
-                if s.header.id != 13 {
-                    s.decode().expect("agent submessage");
-                }
-            }
+            xrce_fuzz::assert_parses(&t.data, "agent");
         }
         if let Some(t) = core.poll_timeout() {
             assert!(t >= now || t + Duration::from_secs(1) >= now);

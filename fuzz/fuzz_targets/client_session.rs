@@ -13,16 +13,6 @@ use xrce_client::prelude::*;
 
 const MS: i64 = 1_000_000;
 
-fn parses(msg: &[u8]) {
-    let (_, subs) = xrce_proto::message::parse(msg).expect("client header");
-    for s in subs {
-        let s = s.expect("client framing");
-        if s.header.id != 13 {
-            s.decode().expect("client submessage");
-        }
-    }
-}
-
 fuzz_target!(|data: &[u8]| {
     let (mut rel_out, mut be_out, mut rel_in) = ([0u8; 2048], [0u8; 512], [0u8; 4096]);
     let mut core: SessionCore<'_, 1, 1, 1, 1> = SessionCore::new(0x81, 0xAABB_CCDD, 512);
@@ -43,13 +33,9 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let writer = object_id(1, ObjectKind::DataWriter);
-    let mut rest = data;
-    while let [op, lo, hi, tail @ ..] = rest {
-        let len = usize::from(u16::from_le_bytes([*lo, *hi])).min(tail.len());
-        let (bytes, next) = tail.split_at(len);
-        rest = next;
+    for (op, bytes) in xrce_fuzz::ops(data) {
         if op & 4 != 0 {
-            now += i64::from(*op) * MS;
+            now += i64::from(op) * MS;
         }
         if op & 64 != 0 && core.outputs().begin_fragmented(rel, writer, 1500).is_ok() {
             let _ = core.outputs().push_fragmented(rel, &[0x5A; 1500]);
@@ -62,19 +48,17 @@ fuzz_target!(|data: &[u8]| {
         }
         core.flash_output_streams();
         if op & 8 != 0 {
-            let mut m = vec![0x81, bytes.first().copied().unwrap_or(0), bytes.get(1).copied().unwrap_or(0), 0];
-            m.extend_from_slice(bytes.get(2..).unwrap_or(&[]));
-            core.handle_input(&m, now, &mut ());
+            core.handle_input(&xrce_fuzz::in_session(bytes), now, &mut ());
         } else {
             core.handle_input(bytes, now, &mut ());
         }
         while let Some(n) = core.poll_transmit(now, &mut out) {
-            parses(&out[..n]);
+            xrce_fuzz::assert_parses(&out[..n], "client");
         }
         let _ = core.poll_timeout();
     }
     now += 60_000 * MS;
     while let Some(n) = core.poll_transmit(now, &mut out) {
-        parses(&out[..n]);
+        xrce_fuzz::assert_parses(&out[..n], "client");
     }
 });
