@@ -495,11 +495,6 @@ impl ReliableOut {
         self.probe.due()
     }
 
-    /// The smallest round trip sampled on this stream.
-    pub fn min_rtt(&self) -> Option<std::time::Duration> {
-        self.probe.min_rtt()
-    }
-
     /// The HEARTBEAT to send for this stream, if anything is unacknowledged.
     pub fn heartbeat(&self, stream_id: u8) -> Option<Heartbeat> {
         self.has_unacked().then(|| Heartbeat {

@@ -233,10 +233,8 @@ impl SendBatch {
         use std::io::IoSlice;
         use std::os::fd::AsRawFd;
 
-        let (Some(first), Ok(segment)) = (train.first(), u16::try_from(train.first().map_or(0, |t| t.data.len())))
-        else {
-            return false;
-        };
+        let Some(first) = train.first() else { return false };
+        let Ok(segment) = u16::try_from(first.data.len()) else { return false };
         let mut it = train.iter();
         let iovs: [IoSlice<'_>; MAX_TRAIN] =
             std::array::from_fn(|_| IoSlice::new(it.next().map_or(&[][..], |t| t.data.as_slice())));
