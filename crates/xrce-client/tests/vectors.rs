@@ -289,6 +289,33 @@ fn tail_losses_are_probed_after_two_round_trips_backing_off_to_the_period() {
     assert_eq!(core.poll_timeout(), Some(T0 + (at + 20) * MILLIS));
 }
 
+/// An agent that never answers: the probes settle at the period, however many go unanswered (the doubling
+/// must not overflow into a negative or tiny timeout).
+#[test]
+fn unanswered_probes_stay_at_the_period_forever() {
+    let mut out_buf = [0u8; 2048];
+    let mut core = established(0x81);
+    let out = core.create_output_reliable_stream(&mut out_buf, 8).unwrap();
+    let writer = object_id(1, ObjectKind::DataWriter);
+    core.buffer_topic(out, writer, &[1u8; 8]).unwrap();
+    core.flash_output_streams();
+    assert_eq!(drain(&mut core, T0).len(), 1);
+    core.handle_input(&[0x81, 0, 0, 0, 0x0A, 0x01, 0x05, 0x00, 1, 0, 0, 0, 0x80], T0 + MILLIS, &mut ());
+    core.buffer_topic(out, writer, &[2u8; 8]).unwrap();
+    core.flash_output_streams();
+    assert_eq!(drain(&mut core, T0 + MILLIS).len(), 1);
+    let mut at = core.poll_timeout().unwrap();
+    for i in 0..100 {
+        assert_eq!(drain(&mut core, at).len(), 1, "probe {i}");
+        let next = core.poll_timeout().unwrap();
+        assert!(next > at && next - at <= 100 * MILLIS, "probe {i}: next in {} ns", next - at);
+        if i > 10 {
+            assert_eq!(next - at, 100 * MILLIS, "probe {i}");
+        }
+        at = next;
+    }
+}
+
 #[test]
 fn acknack_resends_only_nacked_and_not_twice_within_the_interval() {
     let mut out_buf = [0u8; 2048];

@@ -184,7 +184,8 @@ impl<'a> OutputReliable<'a> {
             return HEARTBEAT_PERIOD_NS;
         }
         let base = (i64::from(self.min_rtt_us) * 2000).max(PROBE_FLOOR_NS);
-        base.checked_shl(u32::from(self.probes)).unwrap_or(HEARTBEAT_PERIOD_NS).min(HEARTBEAT_PERIOD_NS)
+        // Past 16 doublings any base is over the period; shifting further would overflow.
+        base.saturating_mul(1 << self.probes.min(16)).min(HEARTBEAT_PERIOD_NS)
     }
 
     /// Folds a round-trip sample into the estimate (exponential average, gain 1/8 as in RFC 6298).
