@@ -6,6 +6,8 @@ use std::collections::VecDeque;
 use xrce_proto::submessage::{flag, id, AckNack, Heartbeat};
 use xrce_proto::{MessageHeader, SubmessageHeader};
 
+pub use crate::bufpool::BufPool;
+
 /// `a < b` in 16-bit serial arithmetic (spec §9.1).
 pub const fn seq_lt(a: u16, b: u16) -> bool {
     a != b && b.wrapping_sub(a) < 0x8000
@@ -14,41 +16,6 @@ pub const fn seq_lt(a: u16, b: u16) -> bool {
 /// `a <= b` in 16-bit serial arithmetic.
 pub const fn seq_le(a: u16, b: u16) -> bool {
     a == b || seq_lt(a, b)
-}
-
-/// Recycled message buffers: the hot path (DATA out, ACKNACKs, retransmissions) reuses them instead of
-/// allocating per message. Bounded: at most [`BufPool::MAX_FREE`] buffers of at most
-/// [`BufPool::MAX_CAPACITY`] bytes are kept.
-#[derive(Debug, Default)]
-pub struct BufPool {
-    free: Vec<Vec<u8>>,
-}
-
-impl BufPool {
-    /// Most buffers kept.
-    pub const MAX_FREE: usize = 512;
-    /// Largest buffer kept (a bigger one is freed).
-    pub const MAX_CAPACITY: usize = 4096;
-
-    /// An empty buffer.
-    pub fn get(&mut self) -> Vec<u8> {
-        self.free.pop().unwrap_or_else(|| Vec::with_capacity(256))
-    }
-
-    /// A buffer holding a copy of `bytes`.
-    pub fn copy_of(&mut self, bytes: &[u8]) -> Vec<u8> {
-        let mut v = self.get();
-        v.extend_from_slice(bytes);
-        v
-    }
-
-    /// Returns a buffer for reuse.
-    pub fn put(&mut self, mut buf: Vec<u8>) {
-        if self.free.len() < Self::MAX_FREE && buf.capacity() <= Self::MAX_CAPACITY {
-            buf.clear();
-            self.free.push(buf);
-        }
-    }
 }
 
 /// Best-effort input: newer messages only (spec §9.2).

@@ -26,8 +26,13 @@ use std::sync::Arc;
 use xrce_proto::types::{Guid, SequenceNumber};
 use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
 
+use crate::bufpool::BufPool;
+
 use super::describe::{describe, Description, ProfileSource, TopicRef};
 use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample};
+
+/// Spare sample buffers kept for reuse.
+const SAMPLE_BUFFERS_KEPT: usize = 1024;
 
 /// Samples kept per topic and requests per service (eProsima's value).
 pub const DEFAULT_RING_SIZE: usize = 16;
@@ -117,53 +122,6 @@ enum Entity {
     },
 }
 
-/// Reusable sample buffers, bounded in number and size.
-#[derive(Debug, Default)]
-struct SpareBuffers {
-    spare: Vec<Vec<u8>>,
-    /// Buffers created because none was spare (diagnostics, tests).
-    created: u64,
-}
-
-impl SpareBuffers {
-    /// Buffers kept at most.
-    const MAX: usize = 1024;
-    /// Larger buffers are freed rather than kept.
-    const MAX_CAPACITY: usize = 4096;
-
-    /// An empty buffer for `len` bytes, reused when one is spare. A spare buffer much larger than needed is
-    /// shrunk first, so the ring never holds small samples in large buffers (memory stays proportional to
-    /// the samples kept); with samples of one size, as usual, nothing is allocated once warm.
-    fn get(&mut self, len: usize) -> Vec<u8> {
-        match self.spare.pop() {
-            Some(mut buf) => {
-                if buf.capacity() > 2 * len + 64 {
-                    buf.shrink_to(len);
-                }
-                buf
-            }
-            None => {
-                self.created = self.created.saturating_add(1);
-                Vec::with_capacity(len)
-            }
-        }
-    }
-
-    /// A copy of `data` in a reused buffer.
-    fn copy_of(&mut self, data: &[u8]) -> Vec<u8> {
-        let mut buf = self.get(data.len());
-        buf.extend_from_slice(data);
-        buf
-    }
-
-    fn put(&mut self, mut buf: Vec<u8>) {
-        if self.spare.len() < Self::MAX && buf.capacity() <= Self::MAX_CAPACITY {
-            buf.clear();
-            self.spare.push(buf);
-        }
-    }
-}
-
 /// The CED middleware.
 pub struct Ced {
     profiles: Arc<dyn ProfileSource>,
@@ -171,7 +129,7 @@ pub struct Ced {
     ring_size: usize,
     topics: HashMap<TopicKey, Ring<Vec<u8>>>,
     /// Sample buffers to reuse: a write or a take costs no allocation once warm.
-    spare: SpareBuffers,
+    spare: BufPool,
     services: HashMap<TopicKey, Ring<PendingRequest>>,
     entities: HashMap<EntityRef, Entity>,
     /// Entities per client (see [`EntityCounts`]).
@@ -224,7 +182,7 @@ impl Ced {
             default_domain: 0,
             ring_size: DEFAULT_RING_SIZE,
             topics: HashMap::new(),
-            spare: SpareBuffers::default(),
+            spare: BufPool::with_max_free(SAMPLE_BUFFERS_KEPT),
             services: HashMap::new(),
             entities: HashMap::new(),
             owned: EntityCounts::default(),
@@ -234,7 +192,7 @@ impl Ced {
 
     /// Sample buffers created so far; constant once warm (writes and takes reuse buffers).
     pub fn sample_buffers_created(&self) -> u64 {
-        self.spare.created
+        self.spare.created()
     }
 
     /// Samples a reliable reader had not taken but that went anyway ([`MAX_BACKLOG`] exceeded).
@@ -456,7 +414,7 @@ impl Middleware for Ced {
         let capacity = self.ring_size;
         let pin = self.pin(&key);
         if let Some(ring) = self.topics.get_mut(&key) {
-            let buf = self.spare.copy_of(data);
+            let buf = self.spare.copy_fitted(data);
             let spare = &mut self.spare;
             if ring.push(buf, capacity, pin, |old| spare.put(old)) {
                 self.forced_drops = self.forced_drops.saturating_add(1);
@@ -568,7 +526,7 @@ impl Middleware for Ced {
             Entity::Reader { key, cursor } => {
                 let (seq, data) = topics.get(key)?.at_or_after(*cursor)?;
                 *cursor = seq + 1;
-                Some(Sample::Data(spare.copy_of(data)))
+                Some(Sample::Data(spare.copy_fitted(data)))
             }
             Entity::Replier { key, cursor } => {
                 let (seq, (identity, data)) = services.get(key)?.at_or_after(*cursor)?;
