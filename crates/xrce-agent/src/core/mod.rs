@@ -402,18 +402,15 @@ where
         }
     }
 
-    /// Arms the tail-loss probe of a reliable output stream that has messages in flight.
-    fn arm_probe(&mut self, key: ClientKey, sid: u8, now: Instant) {
-        let period = self.config.heartbeat_period;
-        let Some(out) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_out.get_mut(&sid)) else { return };
-        if let Some(due) = out.arm_probe(now, period) {
-            self.probes.push(due, key, sid);
-            if self.probes.len() > 4 * self.clients.len() + 1024 {
-                let clients = &self.clients;
-                self.probes.retain(|due, key, sid| {
-                    clients.get(&key).and_then(|c| c.streams.rel_out.get(&sid)).and_then(|o| o.probe_due()) == Some(due)
-                });
-            }
+    /// Schedules a tail-loss probe a stream has just armed ([`stream::ReliableOut::arm_probe`]).
+    fn schedule_probe(&mut self, due: Option<Instant>, key: ClientKey, sid: u8) {
+        let Some(due) = due else { return };
+        self.probes.push(due, key, sid);
+        if self.probes.len() > 4 * self.clients.len() + 1024 {
+            let clients = &self.clients;
+            self.probes.retain(|due, key, sid| {
+                clients.get(&key).and_then(|c| c.streams.rel_out.get(&sid)).and_then(|o| o.probe_due()) == Some(due)
+            });
         }
     }
 

@@ -777,11 +777,12 @@ where
         let progressed = out.first_unacked() != before;
         let repin = progressed && client.unpinned.take().is_some();
         out.flush(&header, mtu, Some(now), &mut self.pool, |m| sent.push(m));
+        let probe = out.arm_probe(now, self.config.heartbeat_period);
         for m in sent.drain(..) {
             self.push_transmit(to, m);
         }
         self.scratch = sent;
-        self.arm_probe(key, ack.stream_id, now);
+        self.schedule_probe(probe, key, ack.stream_id);
         if repin {
             self.pin_readers(key, true);
         }
@@ -823,11 +824,12 @@ where
         let Some(out) = client.streams.rel_out.get_mut(&stream.0) else { return };
         let mut sent = std::mem::take(&mut self.scratch);
         out.flush(&header, mtu, Some(now), &mut self.pool, |m| sent.push(m));
+        let probe = out.arm_probe(now, self.config.heartbeat_period);
         for m in sent.drain(..) {
             self.push_transmit(to, m);
         }
         self.scratch = sent;
-        self.arm_probe(key, stream.0, now);
+        self.schedule_probe(probe, key, stream.0);
     }
 
     /// Delivers the samples one read task may take now. On a reliable stream samples are queued and packed
@@ -1003,17 +1005,18 @@ where
                     return;
                 }
                 // While pumping, samples wait to be packed into one message (see `pump_reader`).
+                let mut sent = std::mem::take(&mut self.scratch);
                 if !self.pumping {
-                    let mut sent = std::mem::take(&mut self.scratch);
                     out.flush(&header, pack_mtu, now, &mut self.pool, |m| sent.push(m));
-                    for m in sent.drain(..) {
-                        self.push_transmit(to, m);
-                    }
-                    self.scratch = sent;
                 }
+                let probe = now.and_then(|now| out.arm_probe(now, self.config.heartbeat_period));
+                for m in sent.drain(..) {
+                    self.push_transmit(to, m);
+                }
+                self.scratch = sent;
                 if let Some(now) = now {
                     self.arm_heartbeat(now);
-                    self.arm_probe(key, stream.0, now);
+                    self.schedule_probe(probe, key, stream.0);
                 }
             }
         }
