@@ -24,6 +24,7 @@ use crate::cli::{self, Config, Transport};
 use crate::core::{AgentCore, CoreConfig};
 use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
 use crate::middleware::profiles::StoreProfiles;
+use crate::middleware::ros_graph::RosGraphMode;
 use crate::middleware::{MiddlewareKind, UnsupportedMiddleware};
 use crate::transport::tcp::{ConnId, TcpServer};
 use crate::transport::udp::UdpServer;
@@ -52,6 +53,14 @@ pub enum AgentError {
     /// Socket or thread error.
     #[error(transparent)]
     Io(#[from] std::io::Error),
+}
+
+fn to_graph_mode(g: cli::RosGraph) -> RosGraphMode {
+    match g {
+        cli::RosGraph::On => RosGraphMode::Gid16,
+        cli::RosGraph::Humble => RosGraphMode::Gid24,
+        cli::RosGraph::Off => RosGraphMode::Off,
+    }
 }
 
 fn to_cli_kind(kind: cli::MiddlewareKind) -> MiddlewareKind {
@@ -111,8 +120,17 @@ macro_rules! entity_api {
 impl<E: Copy + Eq + Hash + Debug> Agent<E> {
     /// An agent on `kind` (only CED exists yet) with the given core limits.
     pub fn new(kind: MiddlewareKind, config: CoreConfig) -> Result<Self, UnsupportedMiddleware> {
+        Self::with_ros_graph(kind, config, RosGraphMode::default())
+    }
+
+    /// As [`Agent::new`], with the DDS middleware's ROS 2 graph mode (`--ros-graph`).
+    pub fn with_ros_graph(
+        kind: MiddlewareKind,
+        config: CoreConfig,
+        ros_graph: RosGraphMode,
+    ) -> Result<Self, UnsupportedMiddleware> {
         let profiles = Arc::new(StoreProfiles::new());
-        let middleware = kind.build(profiles.clone())?;
+        let middleware = kind.build_with(profiles.clone(), ros_graph)?;
         let callbacks = CallbackRegistry::default();
         let wrapped: DynMiddleware = Box::new(WithCallbacks::with_registry(middleware, callbacks.clone()));
         let core = Arc::new(Mutex::new(AgentCore::new(config, wrapped)));
@@ -272,13 +290,18 @@ impl AgentInstance {
     /// Starts an agent for a parsed command line.
     pub fn from_config(config: Config) -> Result<Self, AgentError> {
         let kind = to_cli_kind(config.middleware);
+        let graph = to_graph_mode(config.ros_graph);
         let stop = Arc::new(AtomicBool::new(false));
         if config.p2p.is_some() {
             tracing::warn!("-P/--p2p is not implemented yet; ignored");
         }
         let (agent, server, local_addr) = match config.transport {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
-                let agent = Agent::<SocketAddr>::new(kind, CoreConfig { info_port: port, ..CoreConfig::default() })?;
+                let agent = Agent::<SocketAddr>::with_ros_graph(
+                    kind,
+                    CoreConfig { info_port: port, ..CoreConfig::default() },
+                    graph,
+                )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
                 let server = UdpServer::bind(addr, agent.core())?;
@@ -289,7 +312,11 @@ impl AgentInstance {
                 (AgentHandle::Udp(agent), handle, Some(local))
             }
             Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
-                let agent = Agent::<ConnId>::new(kind, CoreConfig { info_port: port, ..CoreConfig::default() })?;
+                let agent = Agent::<ConnId>::with_ros_graph(
+                    kind,
+                    CoreConfig { info_port: port, ..CoreConfig::default() },
+                    graph,
+                )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
                 let server = TcpServer::bind(addr, agent.core())?;
@@ -401,7 +428,7 @@ fn start_serial(
     lines: Vec<crate::transport::serial::Line>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    let agent = Agent::new(kind, CoreConfig::default())?;
+    let agent = Agent::with_ros_graph(kind, CoreConfig::default(), to_graph_mode(config.ros_graph))?;
     load_refs(config, &agent.profiles)?;
     let server = crate::transport::serial::SerialServer::new(lines, agent.core());
     tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");

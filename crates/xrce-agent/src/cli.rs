@@ -62,6 +62,8 @@ pub struct Config {
     pub discovery: Option<u16>,
     /// Port for P2P agent discovery, if enabled (`-P`).
     pub p2p: Option<u16>,
+    /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
+    pub ros_graph: RosGraph,
 }
 
 impl Config {
@@ -157,6 +159,19 @@ impl Transport {
             _ => None,
         }
     }
+}
+
+/// What `--ros-graph` selects: whether the DDS middleware publishes `ros_discovery_info` so that XRCE
+/// participants appear as ROS 2 nodes, and with which GID size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, ValueEnum)]
+pub enum RosGraph {
+    /// Published, 16-byte GIDs: ROS 2 Iron, Jazzy and later.
+    #[default]
+    On,
+    /// Published, 24-byte GIDs: ROS 2 Humble.
+    Humble,
+    /// Not published.
+    Off,
 }
 
 /// Middleware selected with `-m/--middleware`.
@@ -270,6 +285,11 @@ struct CommonArgs {
     /// Discover other agents and bridge topics with them through this UDP port (CED middleware).
     #[arg(short = 'P', long, value_name = "PORT")]
     p2p: Option<u16>,
+
+    /// ROS 2 graph (DDS middleware): XRCE participants appear as ROS 2 nodes (on: 16-byte GIDs, Iron and
+    /// later; humble: 24-byte GIDs; off: nothing published on ros_discovery_info).
+    #[arg(long, value_enum, value_name = "MODE", default_value_t = RosGraph::On)]
+    ros_graph: RosGraph,
 }
 
 #[derive(Debug, Args)]
@@ -412,6 +432,7 @@ impl Cli {
             verbosity: common.verbose,
             discovery: common.discovery,
             p2p: common.p2p,
+            ros_graph: common.ros_graph,
         })
     }
 }
@@ -523,6 +544,7 @@ mod tests {
                 verbosity: 4,
                 discovery: None,
                 p2p: None,
+                ros_graph: RosGraph::On,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);

@@ -115,6 +115,11 @@ impl Requester {
         self.writer.guid()
     }
 
+    /// GUID of the reply reader.
+    pub fn reply_reader_guid(&self) -> [u8; 16] {
+        self.reader.guid()
+    }
+
     /// Matched repliers (readers of the request topic).
     pub fn matched_repliers(&self) -> usize {
         self.writer.matched_readers()
@@ -152,6 +157,16 @@ impl Replier {
     /// Writes the reply to the request identified by `request`.
     pub fn write_reply(&self, request: &SampleIdentity, body: &[u8]) -> Result<SampleIdentity, DdsError> {
         self.writer.write_related(body, Some(*request))
+    }
+
+    /// GUID of the request reader.
+    pub fn request_reader_guid(&self) -> [u8; 16] {
+        self.reader.guid()
+    }
+
+    /// GUID of the reply writer.
+    pub fn reply_writer_guid(&self) -> [u8; 16] {
+        self.writer.guid()
     }
 
     /// Matched requesters (readers of the reply topic).

@@ -61,6 +61,7 @@ use xrce_proto::types::{Guid, SequenceNumber};
 use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
 
 use super::describe::{Description, ProfileSource, TopicRef};
+use super::ros_graph::{RosGraph, RosGraphMode};
 use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample, Waker};
 use crate::profile::{self, EntityProfile};
 
@@ -218,6 +219,8 @@ pub struct Dds {
     waker: Option<Waker>,
     /// Datareaders whose samples must not be lost: they hold writers back (see the module documentation).
     pinned: HashSet<EntityRef>,
+    /// The ROS 2 graph (`ros_discovery_info`), unless turned off.
+    graph: Option<RosGraph>,
 }
 
 impl std::fmt::Debug for Dds {
@@ -321,6 +324,18 @@ fn service(
     })
 }
 
+/// The DDS reader and writer GUIDs behind an endpoint (both for requesters and repliers); `None` for
+/// entities that are no endpoint.
+fn endpoint_gids(h: &Handle) -> Option<(Option<[u8; 16]>, Option<[u8; 16]>)> {
+    match h {
+        Handle::Writer(w) => Some((None, Some(w.writer.guid()))),
+        Handle::Reader(r) => Some((Some(r.reader.guid()), None)),
+        Handle::Requester(r) => Some((Some(r.reply_reader_guid()), Some(r.request_writer_guid()))),
+        Handle::Replier(r) => Some((Some(r.request_reader_guid()), Some(r.reply_writer_guid()))),
+        Handle::Participant(_) | Handle::Topic(_) | Handle::Group => None,
+    }
+}
+
 /// XRCE sample identity of a DDS sample identity.
 fn identity_to_xrce(id: &xrce_dds::SampleIdentity) -> SampleIdentity {
     let (prefix, rest) = id.writer_guid.split_first_chunk::<12>().map_or(([0u8; 12], &[][..]), |(p, r)| (*p, r));
@@ -369,7 +384,14 @@ impl Dds {
             owned: EntityCounts::default(),
             waker: None,
             pinned: HashSet::new(),
+            graph: RosGraph::new(RosGraphMode::default()),
         }
+    }
+
+    /// Publishes the ROS 2 graph with `mode`'s GIDs, or not at all ([`RosGraphMode::Off`]).
+    pub fn with_ros_graph(mut self, mode: RosGraphMode) -> Self {
+        self.graph = RosGraph::new(mode);
+        self
     }
 
     /// The bridge (DDS participants alive, domain resolution).
@@ -380,6 +402,52 @@ impl Dds {
     /// Number of XRCE entities held.
     pub fn entity_count(&self) -> usize {
         self.entities.len()
+    }
+
+    // ---- ROS 2 graph
+
+    /// The XRCE participant above `entity` (itself for a participant) and its DDS participant's GUID.
+    /// `node` is `entity`'s, which may already be out of the table (deletion); its parents are still in.
+    fn graph_owner(&self, entity: EntityRef, node: &Node) -> Option<(EntityRef, [u8; 16])> {
+        let (mut at, mut node) = (entity, node);
+        // Participant ← publisher/subscriber ← endpoint: two steps up at most.
+        for _ in 0..3 {
+            if let Handle::Participant(p) = &node.handle {
+                return Some((at, p.guid()));
+            }
+            at = node.parent?;
+            node = self.entities.get(&at)?;
+        }
+        None
+    }
+
+    /// Tells the graph about a new entity: a participant named `name` becomes a node, an endpoint adds
+    /// its DDS readers and writers to its participant's node.
+    fn graph_link(&self, entity: EntityRef, name: Option<&str>) {
+        let (Some(g), Some(node)) = (&self.graph, self.entities.get(&entity)) else { return };
+        if let Handle::Participant(p) = &node.handle {
+            if let Some(name) = name {
+                g.add_node(p, entity, name);
+            }
+        } else if let (Some((reader, writer)), Some((xrce, guid))) =
+            (endpoint_gids(&node.handle), self.graph_owner(entity, node))
+        {
+            g.add_endpoint(guid, xrce, entity, reader.as_slice(), writer.as_slice());
+        }
+    }
+
+    /// Tells the graph an entity is gone.
+    fn graph_unlink(&self, entity: EntityRef, node: &Node) {
+        let Some(g) = &self.graph else { return };
+        match &node.handle {
+            Handle::Participant(p) => g.remove_node(p.guid(), entity),
+            h if endpoint_gids(h).is_some() => {
+                if let Some((xrce, guid)) = self.graph_owner(entity, node) {
+                    g.remove_endpoint(guid, xrce, entity);
+                }
+            }
+            _ => {}
+        }
     }
 
     // ---- descriptions
@@ -615,6 +683,9 @@ impl Middleware for Dds {
         let spec = self.spec_of(creation)?;
         let handle = self.build(creation, &spec)?;
         let node = Node { parent: creation.parent, spec: spec.digest(), handle, local: VecDeque::new() };
+        if let Some(old) = self.entities.get(&creation.entity) {
+            self.graph_unlink(creation.entity, old);
+        }
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
         if let (Some(w), Some(q)) = (&self.waker, node.queue()) {
@@ -623,6 +694,11 @@ impl Middleware for Dds {
         if self.entities.insert(creation.entity, Box::new(node)).is_none() {
             self.owned.added(creation.entity.client);
         }
+        let name = match &spec {
+            Spec::Participant { name, .. } => name.as_deref(),
+            _ => None,
+        };
+        self.graph_link(creation.entity, name);
         Ok(())
     }
 
@@ -636,7 +712,8 @@ impl Middleware for Dds {
 
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
         self.pinned.remove(&entity);
-        self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
+        let node = self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
+        self.graph_unlink(entity, &node);
         self.owned.removed(entity.client);
         Ok(())
     }
@@ -646,6 +723,14 @@ impl Middleware for Dds {
             return;
         }
         self.pinned.retain(|e| e.client != client);
+        if let Some(g) = &self.graph {
+            // A node goes with its endpoints.
+            for (e, node) in self.entities.iter().filter(|(e, _)| e.client == client) {
+                if let Handle::Participant(p) = &node.handle {
+                    g.remove_node(p.guid(), *e);
+                }
+            }
+        }
         self.entities.retain(|e, _| e.client != client);
     }
 

@@ -13,6 +13,7 @@ pub mod ced;
 pub mod dds;
 pub mod describe;
 pub mod profiles;
+pub mod ros_graph;
 
 use std::fmt;
 use std::sync::Arc;
@@ -303,9 +304,18 @@ impl MiddlewareKind {
 
     /// Builds the middleware, or says why not.
     pub fn build(self, profiles: Arc<dyn ProfileSource>) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+        self.build_with(profiles, ros_graph::RosGraphMode::default())
+    }
+
+    /// As [`Self::build`], with the ROS 2 graph mode of the DDS middleware (ignored by CED).
+    pub fn build_with(
+        self,
+        profiles: Arc<dyn ProfileSource>,
+        ros_graph: ros_graph::RosGraphMode,
+    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
-            Self::Dds | Self::Rtps => Ok(Box::new(dds::Dds::new(profiles))),
+            Self::Dds | Self::Rtps => Ok(Box::new(dds::Dds::new(profiles).with_ros_graph(ros_graph))),
         }
     }
 }
