@@ -207,6 +207,8 @@ Arguments per transport (place them after the transport):
       -v/--verbose [0-6]              log level: 0 off .. 6 trace with hex dumps [default: 4, bare -v: 4]
       -d/--discovery [PORT]           answer agent discovery requests [bare -d: 7400]
       -P/--p2p <PORT>                 P2P discovery of other agents (CED middleware)
+      --ros-graph <on|humble|off>     ROS 2 nodes for named XRCE participants (dds middleware; ours)
+                                      [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)

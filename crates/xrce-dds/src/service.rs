@@ -139,14 +139,27 @@ impl std::fmt::Debug for Replier {
 }
 
 impl Replier {
-    /// Creates the request reader (forced reliable, as eProsima does) and the reply writer.
+    /// Creates the request reader (forced reliable, as eProsima does) and the reply writer, which is
+    /// transient-local with a history of one sample as in eProsima's agent (Fast DDS' default writer QoS):
+    /// a requester with a transient-local reply reader matches it, and a late one is sent at most one old
+    /// reply (which it drops, its GUID being new). RustDDS never evicts a reply a reliable reader has not
+    /// acknowledged, so keep-last 1 loses nothing.
     pub fn new(participant: &Participant, desc: &ServiceDescription, qos: &EndpointQos) -> Result<Self, DdsError> {
         let req_topic = participant.topic(&desc.request_topic(), &desc.request_type, false)?;
         let rep_topic = participant.topic(&desc.reply_topic(), &desc.reply_type, false)?;
         let request_qos = EndpointQos { reliability: crate::Reliability::Reliable, ..qos.clone() };
         let reader = participant.create_reader(&req_topic, &request_qos)?;
-        let writer = participant.create_writer(&rep_topic, qos)?;
+        let writer = participant.create_writer(&rep_topic, &Self::reply_qos(qos))?;
         Ok(Self { reader, writer })
+    }
+
+    /// QoS of the reply writer for a replier described with `qos`.
+    pub fn reply_qos(qos: &EndpointQos) -> EndpointQos {
+        EndpointQos {
+            durability: crate::Durability::TransientLocal,
+            history: crate::History::KeepLast(1),
+            ..qos.clone()
+        }
     }
 
     /// Incoming requests; answer each with its [`ReceivedSample::identity`](crate::ReceivedSample).
@@ -172,5 +185,20 @@ impl Replier {
     /// Matched requesters (readers of the reply topic).
     pub fn matched_requesters(&self) -> usize {
         self.writer.matched_readers()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Durability, History, Reliability};
+
+    #[test]
+    fn reply_writers_are_transient_local_keep_last_one() {
+        let q = Replier::reply_qos(&EndpointQos::best_effort(10));
+        assert_eq!((q.durability, q.history), (Durability::TransientLocal, History::KeepLast(1)));
+        assert_eq!(q.reliability, Reliability::BestEffort, "the description's reliability is kept");
+        let q = Replier::reply_qos(&EndpointQos::default());
+        assert_eq!(q.reliability, Reliability::Reliable);
     }
 }

@@ -9,8 +9,14 @@
 //! * **Topics** are raw: name, type name (a runtime string) and key kind, from XML (`<kind>WITH_KEY`), a
 //!   `-r` reference or the binary representation (never keyed, as eProsima).
 //! * **Publishers and subscribers** have no DDS counterpart of their own: the bridge gives every
-//!   participant one publisher and one subscriber, and endpoints carry their full QoS. Partitions are not
-//!   applied (logged).
+//!   participant one publisher and one subscriber, and endpoints carry their full QoS. Partitions cannot be
+//!   applied (RustDDS 0.15.1 has no PARTITION policy; logged).
+//! * **Names**: RustDDS 0.15.1 cannot announce a participant name (its SPDP data always leaves
+//!   PID_ENTITY_NAME out and it has no USER_DATA), so the XRCE participant's name reaches DDS only through
+//!   the ROS 2 graph ([`super::ros_graph`]): each named XRCE participant is a ROS 2 node, listed in the
+//!   `ros_discovery_info` sample of the shared DDS participant. Splitting participants by name would cost
+//!   a RustDDS participant (~9 MiB) per name and show nothing more.
+//! * **History depth 0** (eProsima's C client leaves the depth out then) means the DDS default, keep-last 1.
 //! * **Datawriters and datareaders** get the QoS of their description: reliability, durability, history
 //!   kind and depth and resource limits from XML/references (Fast DDS defaults for what is left out), the
 //!   QoS bits of spec §7.4 from binary ones. Resource limits equal to Fast DDS's defaults, or unlimited,
@@ -324,9 +330,12 @@ fn service(
     })
 }
 
+/// The DDS reader and the DDS writer behind an XRCE endpoint (each if it has one).
+type EndpointGids = (Option<[u8; 16]>, Option<[u8; 16]>);
+
 /// The DDS reader and writer GUIDs behind an endpoint (both for requesters and repliers); `None` for
 /// entities that are no endpoint.
-fn endpoint_gids(h: &Handle) -> Option<(Option<[u8; 16]>, Option<[u8; 16]>)> {
+fn endpoint_gids(h: &Handle) -> Option<EndpointGids> {
     match h {
         Handle::Writer(w) => Some((None, Some(w.writer.guid()))),
         Handle::Reader(r) => Some((Some(r.reader.guid()), None)),
@@ -455,13 +464,20 @@ impl Dds {
     fn spec_of(&self, creation: &Creation<'_>) -> Result<Spec, MiddlewareError> {
         let kind = creation.variant.kind;
         let mut spec = match creation.variant.representation {
-            Representation::Reference(r) => match self.profiles.reference_profile(kind, r) {
-                Some(p) => spec_from_profile(p)?,
-                None => {
-                    let d = self.profiles.resolve_reference(kind, r).ok_or_else(|| unknown(r))?;
-                    spec_from_description(kind, d)?
+            Representation::Reference(r) => {
+                let mut spec = match self.profiles.reference_profile(kind, r) {
+                    Some(p) => spec_from_profile(p)?,
+                    None => {
+                        let d = self.profiles.resolve_reference(kind, r).ok_or_else(|| unknown(r))?;
+                        spec_from_description(kind, d)?
+                    }
+                };
+                // A profile without `<rtps><name>` names its participant after itself (the ROS 2 node).
+                if let Spec::Participant { name: name @ None, .. } = &mut spec {
+                    *name = Some(r.to_owned());
                 }
-            },
+                spec
+            }
             Representation::Xml(x) => match profile::parse_entity_xml(kind, x) {
                 Ok(p) => spec_from_profile(p)?,
                 Err(strict) => {
@@ -555,7 +571,13 @@ impl Dds {
             (ObjectKind::Publisher | ObjectKind::Subscriber, Spec::Group { partitions }) => {
                 self.participant_of(parent)?;
                 if !partitions.is_empty() {
-                    tracing::warn!(?entity, ?partitions, "DDS middleware: partitions are not applied");
+                    // RustDDS 0.15.1 has no PARTITION policy (its QoS builder has none, its SEDP data
+                    // carries none): endpoints below this group match as if in the default partition.
+                    tracing::warn!(
+                        ?entity,
+                        ?partitions,
+                        "DDS middleware: partitions cannot be applied (RustDDS has no PARTITION QoS)"
+                    );
                 }
                 Handle::Group
             }
@@ -896,6 +918,11 @@ mod tests {
         );
         let r = qos_from_binary(None, false);
         assert_eq!(r.reliability, Reliability::BestEffort);
+        // Depth 0 (PX4) or left out (eProsima's client for 0): the DDS default, keep-last 1.
+        for depth in [Some(0), None] {
+            let q = qos_from_binary(Some(&BinaryQos { history_depth: depth, ..b }), true);
+            assert_eq!(q.history, History::KeepLast(1));
+        }
     }
 
     #[test]

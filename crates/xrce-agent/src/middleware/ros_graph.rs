@@ -122,7 +122,7 @@ struct Cdr(Vec<u8>);
 
 impl Cdr {
     fn u32(&mut self, v: u32) {
-        while self.0.len() % 4 != 0 {
+        while !self.0.len().is_multiple_of(4) {
             self.0.push(0);
         }
         self.0.extend_from_slice(&v.to_le_bytes());
