@@ -320,6 +320,12 @@ fn xrce_publisher_reaches_a_dds_reader_and_reuse_compares_qos() {
     h.send(1, &c.encode(true, &Submessage::Delete(request)));
     assert_eq!(h.statuses(1).last().unwrap().1, StatusCode::OK.0);
     assert_eq!(h.core.middleware().entity_count(), 0);
+    // The participant was a ROS 2 node (named in its XML): the graph holds the DDS participant until its
+    // last ros_discovery_info sample (no node) is out, then lets it go.
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while h.core.middleware().bridge().participant_count() != 0 && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
     assert_eq!(h.core.middleware().bridge().participant_count(), 0);
 }
 
