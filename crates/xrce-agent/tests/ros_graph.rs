@@ -24,7 +24,8 @@ fn require_loopback_namespace() {
     assert!(ifaces == ["lo"], "ROS 2 tests must run inside a loopback-only namespace; interfaces here: {ifaces:?}");
 }
 
-/// Prints the graph as one JSON line whenever it changes, for `argv[1]` seconds.
+/// Prints the graph as one compact JSON line whenever it changes, for `argv[1]` seconds: the nodes and, per
+/// node other than the probe (key `namespace|name`), its publishers, subscriptions and services.
 const PROBE: &str = r#"
 import json, sys, time
 import rclpy
@@ -32,20 +33,26 @@ rclpy.init()
 node = rclpy.create_node('graph_probe')
 deadline = time.time() + float(sys.argv[1])
 last = None
+def pairs(l):
+    return sorted([n, sorted(t)] for n, t in l)
 while time.time() < deadline:
     rclpy.spin_once(node, timeout_sec=0.02)
-    nodes = sorted([n, ns] for n, ns in node.get_node_names_and_namespaces())
-    topics = sorted([t, ty] for t, ty in node.get_topic_names_and_types())
-    pubs, subs = [], []
-    if ['talker', '/'] in nodes:
+    nodes = sorted([ns, n] for n, ns in node.get_node_names_and_namespaces())
+    by_node = {}
+    for ns, n in nodes:
+        if n == 'graph_probe':
+            continue
         try:
-            pubs = sorted([t, ty] for t, ty in node.get_publisher_names_and_types_by_node('talker', '/'))
-            subs = sorted([t, ty] for t, ty in node.get_subscriber_names_and_types_by_node('talker', '/'))
+            by_node[ns + '|' + n] = {
+                'pubs': pairs(node.get_publisher_names_and_types_by_node(n, ns)),
+                'subs': pairs(node.get_subscriber_names_and_types_by_node(n, ns)),
+                'srvs': pairs(node.get_service_names_and_types_by_node(n, ns)),
+            }
         except Exception as e:
-            pubs = ['error: %s' % e]
-    state = {'nodes': nodes, 'topics': topics, 'talker_pubs': pubs, 'talker_subs': subs}
+            by_node[ns + '|' + n] = 'error: %s' % e
+    state = {'nodes': nodes, 'by_node': by_node}
     if state != last:
-        print(json.dumps(dict(t=time.time(), **state)), flush=True)
+        print(json.dumps(dict(t=time.time(), **state), sort_keys=True, separators=(',', ':')), flush=True)
         last = state
 node.destroy_node()
 rclpy.shutdown()
@@ -95,41 +102,84 @@ fn wait_line(rx: &mpsc::Receiver<String>, secs: u64, pred: impl Fn(&str) -> bool
 }
 
 fn line_time(line: &str) -> f64 {
-    let rest = line.split("\"t\": ").nth(1).unwrap_or("0");
+    let rest = line.split("\"t\":").nth(1).unwrap_or("0");
     rest.split([',', '}']).next().and_then(|s| s.trim().parse().ok()).unwrap_or(0.0)
 }
 
-/// A micro-ROS-like client: binary participant named `talker`, `rt/chatter` writer, `rt/cmd` reader, QoS
-/// reliable, volatile, keep-last 10; deletes its session when `stop` says so and reports when.
-fn talker(port: u16, stop: mpsc::Receiver<()>, deleted: mpsc::Sender<f64>) {
+/// The clients of the test, as micro-ROS and PX4 create their entities.
+#[derive(Clone, Copy)]
+enum Kind {
+    /// micro-ROS: binary participant `talker`, `rt/chatter` writer and `rt/cmd` reader (reliable,
+    /// volatile, keep-last 10).
+    Talker,
+    /// PX4: XML participant `px4_micro_xrce_dds`, binary best-effort transient-local depth-0 writer.
+    Px4,
+    /// micro-ROS service server in a namespace: participant `/robot1/adder`, replier `/robot1/set_flag`.
+    Adder,
+}
+
+/// Runs one client of `kind` until `stop` says so, then deletes its session and reports when.
+fn client(kind: Kind, port: u16, key: u32, stop: mpsc::Receiver<()>, deleted: mpsc::Sender<f64>) {
     let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
     let (mut out_buf, mut in_buf) = ([0u8; 4096], [0u8; 4096]);
-    let mut s = Session::new(transport, 0x7A1C_0001);
+    let mut s = Session::new(transport, key);
     s.create_session().expect("session");
     let out = s.create_output_reliable_stream(&mut out_buf, 8).expect("out");
     let _in = s.create_input_reliable_stream(&mut in_buf, 8).expect("in");
     let part = object_id(1, ObjectKind::Participant);
-    let qos = QoS {
+    let flags = REUSE | REPLACE;
+    let reliable = QoS {
         reliability: Reliability::Reliable,
         durability: Durability::Volatile,
         history: History::KeepLast,
         depth: 10,
     };
-    let (tw, pubr, w) =
-        (object_id(1, ObjectKind::Topic), object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::DataWriter));
-    let (tr, subr, r) =
-        (object_id(2, ObjectKind::Topic), object_id(1, ObjectKind::Subscriber), object_id(1, ObjectKind::DataReader));
-    let flags = REUSE | REPLACE;
-    let reqs = [
-        s.buffer_create_participant_bin(out, part, 0, Some("talker"), flags).unwrap(),
-        s.buffer_create_topic_bin(out, tw, part, "rt/chatter", "std_msgs::msg::dds_::String_", flags).unwrap(),
-        s.buffer_create_publisher_bin(out, pubr, part, flags).unwrap(),
-        s.buffer_create_datawriter_bin(out, w, pubr, tw, qos, flags).unwrap(),
-        s.buffer_create_topic_bin(out, tr, part, "rt/cmd", "std_msgs::msg::dds_::String_", flags).unwrap(),
-        s.buffer_create_subscriber_bin(out, subr, part, flags).unwrap(),
-        s.buffer_create_datareader_bin(out, r, subr, tr, qos, flags).unwrap(),
-    ];
-    let mut status = [0u8; 7];
+    let (t1, t2) = (object_id(1, ObjectKind::Topic), object_id(2, ObjectKind::Topic));
+    let (publ, subs) = (object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::Subscriber));
+    let (w, r) = (object_id(1, ObjectKind::DataWriter), object_id(1, ObjectKind::DataReader));
+    let string = "std_msgs::msg::dds_::String_";
+    let reqs: Vec<u16> = match kind {
+        Kind::Talker => vec![
+            s.buffer_create_participant_bin(out, part, 0, Some("talker"), flags).unwrap(),
+            s.buffer_create_topic_bin(out, t1, part, "rt/chatter", string, flags).unwrap(),
+            s.buffer_create_publisher_bin(out, publ, part, flags).unwrap(),
+            s.buffer_create_datawriter_bin(out, w, publ, t1, reliable, flags).unwrap(),
+            s.buffer_create_topic_bin(out, t2, part, "rt/cmd", string, flags).unwrap(),
+            s.buffer_create_subscriber_bin(out, subs, part, flags).unwrap(),
+            s.buffer_create_datareader_bin(out, r, subs, t2, reliable, flags).unwrap(),
+        ],
+        Kind::Px4 => {
+            let xml = "<dds><participant><rtps><name>px4_micro_xrce_dds</name></rtps></participant></dds>";
+            let be = QoS {
+                reliability: Reliability::BestEffort,
+                durability: Durability::TransientLocal,
+                history: History::KeepLast,
+                depth: 0,
+            };
+            let ty = "px4_msgs::msg::dds_::VehicleStatus_";
+            vec![
+                s.buffer_create_participant_xml(out, part, 0, xml, flags).unwrap(),
+                s.buffer_create_topic_bin(out, t1, part, "rt/fmu/out/vehicle_status", ty, flags).unwrap(),
+                s.buffer_create_publisher_bin(out, publ, part, flags).unwrap(),
+                s.buffer_create_datawriter_bin(out, w, publ, t1, be, flags).unwrap(),
+            ]
+        }
+        Kind::Adder => {
+            let names = ServiceNames {
+                service_name: "robot1/set_flag",
+                request_type: "std_srvs::srv::dds_::SetBool_Request_",
+                reply_type: "std_srvs::srv::dds_::SetBool_Response_",
+                request_topic_name: "rq/robot1/set_flagRequest",
+                reply_topic_name: "rr/robot1/set_flagReply",
+            };
+            let replier = object_id(1, ObjectKind::Replier);
+            vec![
+                s.buffer_create_participant_bin(out, part, 0, Some("/robot1/adder"), flags).unwrap(),
+                s.buffer_create_replier_bin(out, replier, part, &names, reliable, flags).unwrap(),
+            ]
+        }
+    };
+    let mut status = vec![0u8; reqs.len()];
     assert!(s.run_session_until_all_status(2000, &reqs, &mut status).unwrap(), "create: {status:?}");
     while stop.try_recv().is_err() {
         s.run_session_time(20).unwrap();
@@ -139,9 +189,37 @@ fn talker(port: u16, stop: mpsc::Receiver<()>, deleted: mpsc::Sender<f64>) {
     deleted.send(t).unwrap();
 }
 
+struct Running {
+    stop: mpsc::Sender<()>,
+    deleted: mpsc::Receiver<f64>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+fn start(kind: Kind, port: u16, key: u32) -> Running {
+    let (stop, stop_rx) = mpsc::channel();
+    let (del_tx, deleted) = mpsc::channel();
+    let thread = std::thread::spawn(move || client(kind, port, key, stop_rx, del_tx));
+    Running { stop, deleted, thread }
+}
+
+impl Running {
+    /// Deletes the client's session; returns when (Unix time, seconds).
+    fn delete(self) -> f64 {
+        self.stop.send(()).unwrap();
+        let t = self.deleted.recv_timeout(Duration::from_secs(5)).expect("session deleted");
+        self.thread.join().unwrap();
+        t
+    }
+}
+
+const TALKER: &str =
+    r#""/|talker":{"pubs":[["/chatter",["std_msgs/msg/String"]]],"srvs":[],"subs":[["/cmd",["std_msgs/msg/String"]]]}"#;
+const PX4: &str = r#""/|px4_micro_xrce_dds":{"pubs":[["/fmu/out/vehicle_status",["px4_msgs/msg/VehicleStatus"]]]"#;
+const ADDER: &str = r#""/robot1|adder":{"pubs":[],"srvs":[["/robot1/set_flag",["std_srvs/srv/SetBool"]]]"#;
+
 #[test]
 #[ignore = "starts DDS and rclpy: run inside shared/dds-peers/netns.sh with XRCE_ROS_VENV and --ignored"]
-fn micro_ros_like_client_is_a_ros_node_until_deleted() {
+fn micro_ros_and_px4_like_clients_are_ros_nodes_until_deleted() {
     require_loopback_namespace();
     let venv = std::env::var("XRCE_ROS_VENV").expect("XRCE_ROS_VENV: a venv with rclpy (ROS 2 Jazzy)");
     let mut agent = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "dds"]).expect("agent");
@@ -150,29 +228,26 @@ fn micro_ros_like_client_is_a_ros_node_until_deleted() {
     // The probe's own node first: rclpy is up and discovering.
     wait_line(&lines, 15, |l| l.contains("graph_probe")).expect("rclpy probe started");
 
-    let (stop_tx, stop_rx) = mpsc::channel();
-    let (del_tx, del_rx) = mpsc::channel();
-    let client = std::thread::spawn(move || talker(port, stop_rx, del_tx));
-    let seen = wait_line(&lines, 10, |l| {
-        l.contains(r#"["talker", "/"]"#)
-            && l.contains(r#""talker_pubs": [["/chatter", ["std_msgs/msg/String"]]]"#)
-            && l.contains(r#""talker_subs": [["/cmd", ["std_msgs/msg/String"]]]"#)
-    });
-    assert!(seen.is_some(), "node talker with /chatter and /cmd never appeared");
+    let talker = start(Kind::Talker, port, 0x7A1C_0001);
+    let px4 = start(Kind::Px4, port, 0x7A1C_0002);
+    let adder = start(Kind::Adder, port, 0x7A1C_0003);
+    let seen = wait_line(&lines, 10, |l| l.contains(TALKER) && l.contains(PX4) && l.contains(ADDER));
+    assert!(seen.is_some(), "the three nodes never appeared with their endpoints");
 
-    stop_tx.send(()).unwrap();
-    let deleted_at = del_rx.recv_timeout(Duration::from_secs(5)).expect("session deleted");
-    let gone = wait_line(&lines, 5, |l| !l.contains(r#"["talker", "/"]"#)).expect("node talker never disappeared");
+    let deleted_at = talker.delete();
+    let gone = wait_line(&lines, 5, |l| !l.contains(r#""/|talker""#)).expect("node talker never disappeared");
     let after = line_time(&gone) - deleted_at;
-    println!("node gone {:.0} ms after the session's deletion", after * 1000.0);
+    println!("node talker gone {:.0} ms after its session's deletion", after * 1000.0);
     assert!(after < 1.0, "node disappeared {after:.3} s after deletion");
+    assert!(gone.contains(PX4) && gone.contains(ADDER), "the other nodes stay: {gone}");
     // Not asserted: the endpoints' own disappearance is up to the DDS engine's disposal messages (see the
     // report of issue 11); printed so a run shows it.
     match wait_line(&lines, 3, |l| !l.contains("/chatter")) {
         Some(l) => println!("/chatter gone {:.0} ms after the deletion", (line_time(&l) - deleted_at) * 1000.0),
         None => println!("/chatter still listed 3 s after the deletion"),
     }
-    client.join().unwrap();
+    px4.delete();
+    adder.delete();
     let _ = probe.kill();
     let _ = probe.wait();
     agent.stop().unwrap();
