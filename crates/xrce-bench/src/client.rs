@@ -387,6 +387,8 @@ pub struct Endpoints<'n> {
     pub reliable: bool,
     /// History depth in the QoS.
     pub depth: u16,
+    /// Participant name (micro-ROS puts its node name there; our agent's DDS middleware makes it a ROS 2 node).
+    pub participant_name: Option<&'n str>,
 }
 
 /// Buffers (binary representation, REPLACE) a participant in domain 0 and what `ep` asks for on `stream`;
@@ -397,7 +399,10 @@ pub fn buffer_endpoints<'a, W: WriteAccessExt<'a> + ?Sized>(
     ep: &Endpoints<'_>,
 ) -> Result<Vec<(&'static str, u16)>, BenchError> {
     let q = qos(ep.reliable, ep.depth);
-    let mut reqs = vec![("participant", w.buffer_create_participant_bin(stream, ids::PARTICIPANT, 0, None, REPLACE)?)];
+    let mut reqs = vec![(
+        "participant",
+        w.buffer_create_participant_bin(stream, ids::PARTICIPANT, 0, ep.participant_name, REPLACE)?,
+    )];
     if let Some(topic) = ep.write {
         reqs.push((
             "topic",

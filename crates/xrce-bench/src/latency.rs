@@ -117,7 +117,8 @@ fn setup<'a, D: OnData>(
     let be = c.core.create_output_best_effort_stream(be_out)?;
     let in_rel = c.core.create_input_reliable_stream(rel_in, cfg.history)?;
     let in_be = c.core.create_input_best_effort_stream()?;
-    let ep = Endpoints { write: Some(write), read: Some(read), reliable: cfg.reliable, depth: 0 };
+    let ep =
+        Endpoints { write: Some(write), read: Some(read), reliable: cfg.reliable, depth: 0, participant_name: None };
     let reqs = buffer_endpoints(&mut c.core, rel, &ep)?;
     c.wait_statuses(h, &reqs, Duration::from_secs(5))?;
     let s = if cfg.reliable {

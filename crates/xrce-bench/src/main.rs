@@ -183,6 +183,9 @@ struct SessionsArgs {
     /// The agent's PID: report its RSS growth per client.
     #[arg(long)]
     agent_pid: Option<u32>,
+    /// Name every participant (`node_<key>`), as micro-ROS does (a ROS 2 node each with `-m dds`).
+    #[arg(long)]
+    named: bool,
     /// JSON lines instead of a table.
     #[arg(long)]
     json: bool,
@@ -404,6 +407,7 @@ fn sessions_cmd(a: &SessionsArgs) -> Result<(), BenchError> {
     cfg.agent_pid = a.agent_pid;
     cfg.delete = !a.keep;
     cfg.warmup = a.warmup;
+    cfg.named = a.named;
     let pb = bar(a.clients >= 500, format!("{} sessions", a.clients));
     let r = sessions::run(&cfg, &set(&pb));
     pb.finish_and_clear();

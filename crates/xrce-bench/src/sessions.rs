@@ -42,6 +42,9 @@ pub struct SessionsConfig {
     pub warmup: usize,
     /// Delete the sessions at the end.
     pub delete: bool,
+    /// Name every participant (`node_<client key>`, all distinct), as micro-ROS does: with the DDS
+    /// middleware each is then a ROS 2 node.
+    pub named: bool,
     /// Run id.
     pub run: u32,
 }
@@ -59,6 +62,7 @@ impl SessionsConfig {
             agent_pid: None,
             warmup: 1,
             delete: true,
+            named: false,
             run: crate::run_id(),
         }
     }
@@ -134,6 +138,7 @@ struct Slot<'a> {
     took: Duration,
     track: Track,
     out: xrce_client::StreamId,
+    name: Option<String>,
 }
 
 /// Per-worker outcome.
@@ -165,6 +170,7 @@ fn new_slot<'a>(cfg: &SessionsConfig, key: u32, buf: &'a mut [u8], now: i64) -> 
         took: Duration::ZERO,
         track: Track::default(),
         out,
+        name: cfg.named.then(|| format!("node_{key:08x}")),
     })
 }
 
@@ -194,7 +200,13 @@ fn step(
     }
     match (slot.stage, slot.core.state()) {
         (Stage::Creating, SessionState::Established) => {
-            let ep = Endpoints { write: Some(topic), read: None, reliable: true, depth: 0 };
+            let ep = Endpoints {
+                write: Some(topic),
+                read: None,
+                reliable: true,
+                depth: 0,
+                participant_name: slot.name.as_deref(),
+            };
             match buffer_endpoints(&mut slot.core, slot.out, &ep) {
                 Ok(reqs) => {
                     for (dst, (_, r)) in slot.track.requests.iter_mut().zip(reqs) {

@@ -207,7 +207,7 @@ fn setup_subscriber<'a>(
     let in_rel = c.core.create_input_reliable_stream(in_buf, sub_history)?;
     let in_be = c.core.create_input_best_effort_stream()?;
     let topic = topic_name(cfg.run);
-    let ep = Endpoints { write: None, read: Some(&topic), reliable: cfg.reliable, depth: 0 };
+    let ep = Endpoints { write: None, read: Some(&topic), reliable: cfg.reliable, depth: 0, participant_name: None };
     let reqs = buffer_endpoints(&mut c.core, out, &ep)?;
     let tracker = Tracker { last: vec![None; cfg.publishers], ..Tracker::default() };
     let mut h = Handler::new(tracker);
@@ -306,7 +306,7 @@ fn setup_publisher<'a>(
     let be = c.core.create_output_best_effort_stream(be_buf)?;
     c.core.create_input_reliable_stream(in_buf, 4)?;
     let topic = topic_name(cfg.run);
-    let ep = Endpoints { write: Some(&topic), read: None, reliable: cfg.reliable, depth: 0 };
+    let ep = Endpoints { write: Some(&topic), read: None, reliable: cfg.reliable, depth: 0, participant_name: None };
     let reqs = buffer_endpoints(&mut c.core, rel, &ep)?;
     let mut h = client::status_only();
     c.wait_statuses(&mut h, &reqs, Duration::from_secs(5))?;

@@ -441,7 +441,7 @@ impl Dds {
         } else if let (Some((reader, writer)), Some((xrce, guid))) =
             (endpoint_gids(&node.handle), self.graph_owner(entity, node))
         {
-            g.add_endpoint(guid, xrce, entity, reader.as_slice(), writer.as_slice());
+            g.add_endpoint(guid, xrce, entity, reader, writer);
         }
     }
 
@@ -451,8 +451,8 @@ impl Dds {
         match &node.handle {
             Handle::Participant(p) => g.remove_node(p.guid(), entity),
             h if endpoint_gids(h).is_some() => {
-                if let Some((xrce, guid)) = self.graph_owner(entity, node) {
-                    g.remove_endpoint(guid, xrce, entity);
+                if let Some((_, guid)) = self.graph_owner(entity, node) {
+                    g.remove_endpoint(guid, entity);
                 }
             }
             _ => {}

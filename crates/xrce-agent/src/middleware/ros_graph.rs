@@ -26,7 +26,8 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use xrce_dds::{Durability, EndpointQos, History, Participant, RawWriter, Reliability};
+use xrce_dds::{Durability, EndpointQos, History, Participant, RawWriter, Reliability, ResourceLimits};
+use xrce_proto::{ClientKey, ObjectId};
 
 use super::EntityRef;
 
@@ -43,6 +44,16 @@ pub const MAX_NAME_LEN: usize = 256;
 /// How long changes are gathered before a sample is published: a client creating its participant and
 /// ten endpoints costs one sample, not eleven, and a deleted node still disappears at once for a human.
 pub const COALESCE: Duration = Duration::from_millis(50);
+
+/// Added to [`COALESCE`] per node listed: a sample is rewritten whole on every change, so with thousands
+/// of nodes arriving at once (10,000 clients reconnecting) each publication is held longer and fewer,
+/// larger samples are written. Every sample is a fresh allocation of ~56 bytes per node; at 50 ms for
+/// 10,000 nodes the allocator kept ~460 bytes per node of them (measured in RSS), at
+/// [`COALESCE_MAX`] about 4 times less.
+pub const COALESCE_PER_NODE: Duration = Duration::from_micros(40);
+
+/// Longest gathering time, so a deleted node disappears well within a second even among 100,000.
+pub const COALESCE_MAX: Duration = Duration::from_millis(450);
 
 /// How long the last sample of a DDS participant that no longer has nodes may take to be acknowledged
 /// before its writer (and with it possibly the DDS participant) is dropped.
@@ -80,121 +91,160 @@ pub struct NodeName {
     pub name: String,
 }
 
+/// A node's namespace and name as parts of the participant name (no allocation: samples listing
+/// thousands of nodes are encoded straight from the participant names).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NodeNameRef<'a> {
+    /// The namespace without its leading `/` (empty: the root namespace `/`).
+    pub namespace_tail: &'a str,
+    /// The name.
+    pub name: &'a str,
+}
+
+impl NodeNameRef<'_> {
+    /// Owned form.
+    pub fn to_owned(self) -> NodeName {
+        NodeName { namespace: format!("/{}", self.namespace_tail), name: self.name.to_owned() }
+    }
+}
+
 /// The node an XRCE participant named `participant_name` is, by micro-ROS' agent's rule: one leading `/`
 /// is dropped; with two segments or more the first is the namespace (`/` prepended) and the rest, joined
-/// by `/`, the name; otherwise the whole is the name in namespace `/`. `None` for names that make no node:
-/// empty, `/` (micro-ROS' agent skips its own root participant of that name) or longer than
-/// [`MAX_NAME_LEN`].
-pub fn node_name(participant_name: &str) -> Option<NodeName> {
+/// by `/`, the name; otherwise the whole is the name in namespace `/`. Segments are cut as C++'s getline
+/// cuts them, so one trailing `/` adds no empty segment. `None` for names that make no node: empty, `/`
+/// (micro-ROS' agent skips its own root participant of that name) or longer than [`MAX_NAME_LEN`].
+pub fn split_node_name(participant_name: &str) -> Option<NodeNameRef<'_>> {
     let s = participant_name.strip_prefix('/').unwrap_or(participant_name);
-    // Segments as C++'s getline splits them: a trailing separator adds no empty last segment.
-    let mut parts: Vec<&str> = s.split('/').collect();
-    if parts.len() > 1 && parts.last() == Some(&"") {
-        parts.pop();
-    }
-    let node = match parts.split_first() {
-        Some((first, rest)) if !rest.is_empty() => NodeName { namespace: format!("/{first}"), name: rest.join("/") },
-        _ => NodeName { namespace: "/".to_owned(), name: s.to_owned() },
+    let node = match s.split_once('/') {
+        Some((first, rest)) if !rest.is_empty() => {
+            NodeNameRef { namespace_tail: first, name: rest.strip_suffix('/').unwrap_or(rest) }
+        }
+        _ => NodeNameRef { namespace_tail: "", name: s },
     };
-    if node.name.is_empty() || node.name.len() > MAX_NAME_LEN || node.namespace.len() > MAX_NAME_LEN {
+    if node.name.is_empty() || node.name.len() > MAX_NAME_LEN || node.namespace_tail.len() + 1 > MAX_NAME_LEN {
         return None;
     }
     Some(node)
 }
 
+/// [`split_node_name`], owned.
+pub fn node_name(participant_name: &str) -> Option<NodeName> {
+    split_node_name(participant_name).map(NodeNameRef::to_owned)
+}
+
 /// A DDS GUID: 12-byte prefix then 4-byte entity id.
 pub type Gid = [u8; 16];
 
-/// What one node lists: readers and writers.
-#[derive(Debug, Clone, Copy)]
-pub struct NodeEntities<'a> {
-    /// Namespace and name.
-    pub name: &'a NodeName,
-    /// Reader GIDs.
-    pub readers: &'a [Gid],
-    /// Writer GIDs.
-    pub writers: &'a [Gid],
+/// XCDR1 little-endian writer of a `ParticipantEntitiesInfo` body (alignment counted from the body
+/// start, after the 4-byte encapsulation header the bridge adds):
+/// `ParticipantEntitiesInfo { Gid gid; NodeEntitiesInfo[] node_entities_info_seq; }`,
+/// `NodeEntitiesInfo { string node_namespace; string node_name; Gid[] reader_gid_seq; Gid[] writer_gid_seq; }`,
+/// `Gid { char data[gid_len]; }` (16 or 24, see [`RosGraphMode::gid_len`]).
+pub struct InfoEncoder {
+    buf: Vec<u8>,
+    gid_len: usize,
+    /// Where the node count goes, written last.
+    count_at: usize,
+    count: u32,
 }
 
-/// XCDR1 little-endian writer for the body (alignment counted from the body start, after the 4-byte
-/// encapsulation header the bridge adds).
-struct Cdr(Vec<u8>);
+impl InfoEncoder {
+    /// Starts the sample of DDS participant `participant`, about `nodes` nodes long.
+    pub fn new(participant: &Gid, gid_len: usize, nodes: usize) -> Self {
+        let mut e = Self { buf: Vec::with_capacity(24 + nodes * 56), gid_len, count_at: 0, count: 0 };
+        e.gid(participant);
+        e.align4();
+        e.count_at = e.buf.len();
+        e.u32(0);
+        e
+    }
 
-impl Cdr {
-    fn u32(&mut self, v: u32) {
-        while !self.0.len().is_multiple_of(4) {
-            self.0.push(0);
+    /// Adds a node with its readers and writers.
+    pub fn node(&mut self, name: NodeNameRef<'_>, readers: &[Gid], writers: &[Gid]) {
+        self.string(&["/", name.namespace_tail]);
+        self.string(&[name.name]);
+        self.gids(readers);
+        self.gids(writers);
+        self.count = self.count.saturating_add(1);
+    }
+
+    /// The body.
+    pub fn finish(mut self) -> Vec<u8> {
+        if let Some(slot) = self.buf.get_mut(self.count_at..self.count_at + 4) {
+            slot.copy_from_slice(&self.count.to_le_bytes());
         }
-        self.0.extend_from_slice(&v.to_le_bytes());
+        self.buf
+    }
+
+    fn align4(&mut self) {
+        while !self.buf.len().is_multiple_of(4) {
+            self.buf.push(0);
+        }
+    }
+
+    fn u32(&mut self, v: u32) {
+        self.align4();
+        self.buf.extend_from_slice(&v.to_le_bytes());
     }
 
     fn len(&mut self, n: usize) {
         self.u32(u32::try_from(n).unwrap_or(u32::MAX));
     }
 
-    fn string(&mut self, s: &str) {
-        self.len(s.len() + 1);
-        self.0.extend_from_slice(s.as_bytes());
-        self.0.push(0);
+    /// A string made of `parts`, NUL-terminated.
+    fn string(&mut self, parts: &[&str]) {
+        self.len(parts.iter().map(|p| p.len()).sum::<usize>() + 1);
+        for p in parts {
+            self.buf.extend_from_slice(p.as_bytes());
+        }
+        self.buf.push(0);
     }
 
-    fn gid(&mut self, g: &Gid, gid_len: usize) {
-        self.0.extend_from_slice(g);
-        self.0.resize(self.0.len() + gid_len.saturating_sub(g.len()), 0);
+    fn gid(&mut self, g: &Gid) {
+        self.buf.extend_from_slice(g);
+        self.buf.resize(self.buf.len() + self.gid_len.saturating_sub(g.len()), 0);
     }
 
-    fn gids(&mut self, gids: &[Gid], gid_len: usize) {
+    fn gids(&mut self, gids: &[Gid]) {
         self.len(gids.len());
         for g in gids {
-            self.gid(g, gid_len);
+            self.gid(g);
         }
     }
 }
 
-/// CDR body of `ParticipantEntitiesInfo { Gid gid; NodeEntitiesInfo[] node_entities_info_seq; }` with
-/// `NodeEntitiesInfo { string node_namespace; string node_name; Gid[] reader_gid_seq; Gid[] writer_gid_seq; }`
-/// and `Gid { char data[gid_len]; }` (16 or 24, see [`RosGraphMode::gid_len`]).
-pub fn encode_participant_info(participant: &Gid, nodes: &[NodeEntities<'_>], gid_len: usize) -> Vec<u8> {
-    let mut w = Cdr(Vec::with_capacity(24 + nodes.len() * 64));
-    w.gid(participant, gid_len);
-    w.len(nodes.len());
-    for n in nodes {
-        w.string(&n.name.namespace);
-        w.string(&n.name.name);
-        w.gids(n.readers, gid_len);
-        w.gids(n.writers, gid_len);
-    }
-    w.0
-}
-
-/// The DDS endpoints of one XRCE entity as the graph lists them.
+/// The DDS endpoints behind one XRCE endpoint of a node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct EndpointGid {
-    entity: EntityRef,
-    gid: Gid,
-    writer: bool,
+struct Endpoint {
+    /// The XRCE participant (of the same client) whose node lists it.
+    participant: ObjectId,
+    reader: Option<Gid>,
+    writer: Option<Gid>,
 }
 
-/// An XRCE participant that is a node. Small on purpose (thousands of clients): the name is shared by
-/// every participant with the same one.
-struct Node {
-    name: Arc<NodeName>,
-    endpoints: Vec<EndpointGid>,
-}
-
-/// The nodes of one DDS participant and its `ros_discovery_info` writer.
+/// The nodes of one DDS participant and its `ros_discovery_info` writer. Flat maps keyed by XRCE entity
+/// keep a node small (thousands of clients, each a node): its participant name and one entry per
+/// endpoint, nothing else; namespace and name are split when a sample is encoded.
 struct DdsEntry {
     participant: Participant,
     writer: Option<Arc<RawWriter>>,
-    nodes: BTreeMap<EntityRef, Node>,
+    nodes: BTreeMap<EntityRef, Box<str>>,
+    endpoints: BTreeMap<EntityRef, Endpoint>,
+}
+
+impl DdsEntry {
+    /// The endpoints of `client`, in object id order.
+    fn client_endpoints(&self, client: ClientKey) -> impl Iterator<Item = (&EntityRef, &Endpoint)> {
+        let lo = EntityRef::new(client, ObjectId::from_raw(0));
+        let hi = EntityRef::new(client, ObjectId::from_raw(u16::MAX));
+        self.endpoints.range(lo..=hi)
+    }
 }
 
 #[derive(Default)]
 struct State {
     entries: HashMap<Gid, DdsEntry>,
     dirty: HashSet<Gid>,
-    /// Node names in use, shared by the nodes that carry them.
-    names: HashMap<String, Arc<NodeName>>,
     worker: Option<JoinHandle<()>>,
     shutdown: bool,
 }
@@ -232,57 +282,62 @@ impl RosGraph {
     /// XRCE participant `xrce`, named `name`, lives in `participant`: it becomes a node (if its name makes
     /// one, see [`node_name`]).
     pub fn add_node(&self, participant: &Participant, xrce: EntityRef, name: &str) {
-        let Some(node) = node_name(name) else {
+        if split_node_name(name).is_none() {
             if !name.is_empty() && name != "/" {
                 tracing::warn!(?xrce, name, "participant name makes no ROS 2 node (longer than 256?)");
             }
             return;
-        };
+        }
         let mut st = lock(&self.shared.state);
-        let name = Arc::clone(st.names.entry(name_key(&node)).or_insert_with(|| Arc::new(node)));
         let guid = participant.guid();
         let entry = st.entries.entry(guid).or_insert_with(|| DdsEntry {
             participant: participant.clone(),
             writer: None,
             nodes: BTreeMap::new(),
+            endpoints: BTreeMap::new(),
         });
-        entry.nodes.insert(xrce, Node { name, endpoints: Vec::new() });
+        entry.nodes.insert(xrce, name.into());
         self.changed(st, guid);
     }
 
-    /// XRCE participant `xrce` of DDS participant `guid` is gone.
+    /// XRCE participant `xrce` of DDS participant `guid` is gone, with its endpoints.
     pub fn remove_node(&self, guid: Gid, xrce: EntityRef) {
         let mut st = lock(&self.shared.state);
-        let removed = st.entries.get_mut(&guid).and_then(|e| e.nodes.remove(&xrce));
-        if let Some(node) = removed {
-            let key = name_key(&node.name);
-            drop(node);
-            // The last node with that name lets the shared name go.
-            if st.names.get(&key).is_some_and(|n| Arc::strong_count(n) == 1) {
-                st.names.remove(&key);
-            }
-            self.changed(st, guid);
+        let Some(entry) = st.entries.get_mut(&guid) else { return };
+        if entry.nodes.remove(&xrce).is_none() {
+            return;
         }
-    }
-
-    /// `entity` (an endpoint of XRCE participant `xrce`, in DDS participant `guid`) has these DDS readers
-    /// and writers. Ignored when `xrce` is not a node.
-    pub fn add_endpoint(&self, guid: Gid, xrce: EntityRef, entity: EntityRef, readers: &[Gid], writers: &[Gid]) {
-        let mut st = lock(&self.shared.state);
-        let Some(node) = st.entries.get_mut(&guid).and_then(|e| e.nodes.get_mut(&xrce)) else { return };
-        node.endpoints.retain(|e| e.entity != entity);
-        let tagged = |writer: bool| move |gid: &Gid| EndpointGid { entity, gid: *gid, writer };
-        node.endpoints.extend(readers.iter().map(tagged(false)).chain(writers.iter().map(tagged(true))));
+        let gone: Vec<EntityRef> =
+            entry.client_endpoints(xrce.client).filter(|(_, e)| e.participant == xrce.id).map(|(k, _)| *k).collect();
+        for e in gone {
+            entry.endpoints.remove(&e);
+        }
         self.changed(st, guid);
     }
 
-    /// Endpoint `entity` of XRCE participant `xrce` (DDS participant `guid`) is gone.
-    pub fn remove_endpoint(&self, guid: Gid, xrce: EntityRef, entity: EntityRef) {
+    /// `entity` (an endpoint of XRCE participant `xrce`, in DDS participant `guid`) has this DDS reader
+    /// and writer. Ignored when `xrce` is not a node.
+    pub fn add_endpoint(
+        &self,
+        guid: Gid,
+        xrce: EntityRef,
+        entity: EntityRef,
+        reader: Option<Gid>,
+        writer: Option<Gid>,
+    ) {
         let mut st = lock(&self.shared.state);
-        let Some(node) = st.entries.get_mut(&guid).and_then(|e| e.nodes.get_mut(&xrce)) else { return };
-        let before = node.endpoints.len();
-        node.endpoints.retain(|e| e.entity != entity);
-        if node.endpoints.len() != before {
+        let Some(entry) = st.entries.get_mut(&guid) else { return };
+        if !entry.nodes.contains_key(&xrce) {
+            return;
+        }
+        entry.endpoints.insert(entity, Endpoint { participant: xrce.id, reader, writer });
+        self.changed(st, guid);
+    }
+
+    /// Endpoint `entity` of DDS participant `guid` is gone.
+    pub fn remove_endpoint(&self, guid: Gid, entity: EntityRef) {
+        let mut st = lock(&self.shared.state);
+        if st.entries.get_mut(&guid).and_then(|e| e.endpoints.remove(&entity)).is_some() {
             self.changed(st, guid);
         }
     }
@@ -318,14 +373,6 @@ impl Drop for RosGraph {
     }
 }
 
-fn name_key(n: &NodeName) -> String {
-    if n.namespace == "/" {
-        n.name.clone()
-    } else {
-        format!("{}/{}", n.namespace, n.name)
-    }
-}
-
 /// One publication the thread has to make, gathered under the lock and carried out without it.
 struct Job {
     guid: Gid,
@@ -339,30 +386,32 @@ struct Job {
 fn gather(st: &mut State, gid_len: usize) -> Vec<Job> {
     let dirty: Vec<Gid> = st.dirty.drain().collect();
     let mut jobs = Vec::with_capacity(dirty.len());
+    // Reused for every node: no allocation per node, however many there are.
+    let (mut readers, mut writers) = (Vec::<Gid>::new(), Vec::<Gid>::new());
     for guid in dirty {
         let Some(entry) = st.entries.get(&guid) else { continue };
-        let mut lists: Vec<(Vec<Gid>, Vec<Gid>)> = Vec::with_capacity(entry.nodes.len());
-        for node in entry.nodes.values() {
-            let mut readers: Vec<Gid> = node.endpoints.iter().filter(|e| !e.writer).map(|e| e.gid).collect();
-            let mut writers: Vec<Gid> = node.endpoints.iter().filter(|e| e.writer).map(|e| e.gid).collect();
+        let mut enc = InfoEncoder::new(&guid, gid_len, entry.nodes.len());
+        for (xrce, name) in &entry.nodes {
+            // Checked when the node was added.
+            let Some(name) = split_node_name(name) else { continue };
+            readers.clear();
+            writers.clear();
+            for (_, e) in entry.client_endpoints(xrce.client).filter(|(_, e)| e.participant == xrce.id) {
+                readers.extend(e.reader);
+                writers.extend(e.writer);
+            }
             // XRCE datawriters of one participant may share a DDS writer: list it once.
             readers.sort_unstable();
             readers.dedup();
             writers.sort_unstable();
             writers.dedup();
-            lists.push((readers, writers));
+            enc.node(name, &readers, &writers);
         }
-        let nodes: Vec<NodeEntities<'_>> = entry
-            .nodes
-            .values()
-            .zip(&lists)
-            .map(|(n, (r, w))| NodeEntities { name: &n.name, readers: r, writers: w })
-            .collect();
         jobs.push(Job {
             guid,
             participant: entry.participant.clone(),
             writer: entry.writer.clone(),
-            body: encode_participant_info(&guid, &nodes, gid_len),
+            body: enc.finish(),
             retire: entry.nodes.is_empty(),
         });
     }
@@ -371,31 +420,43 @@ fn gather(st: &mut State, gid_len: usize) -> Vec<Job> {
 
 fn discovery_writer(p: &Participant) -> Result<RawWriter, xrce_dds::DdsError> {
     let topic = p.topic(DISCOVERY_TOPIC, DISCOVERY_TYPE, false)?;
-    // What rmw gives its own ros_discovery_info writer, so late-joining ROS nodes get the last sample.
+    // What rmw gives its own ros_discovery_info writer, so late-joining ROS nodes get the last sample. The
+    // explicit limit matters: a durable RustDDS writer without matched readers keeps every sample up to it
+    // (1,024 by default, each listing every node). RustDDS also makes it the send window: with one, a
+    // sample waits for the acknowledgment of the previous one, which a newly matched Fast DDS reader
+    // gives only ~1 s late (measured: a node took 0.86 s to disappear); two let the next change through.
     let qos = EndpointQos {
         reliability: Reliability::Reliable,
         durability: Durability::TransientLocal,
         history: History::KeepLast(1),
+        resource_limits: Some(ResourceLimits { max_samples: 2, max_instances: 1, max_samples_per_instance: 2 }),
         ..EndpointQos::default()
     };
     p.create_writer(&topic, &qos)
 }
 
-fn publish(job: &Job) -> Option<Arc<RawWriter>> {
+/// Publishes `job`'s sample; the writer, and whether the sample went out.
+fn publish(job: &Job) -> (Option<Arc<RawWriter>>, bool) {
     let writer = match &job.writer {
         Some(w) => Arc::clone(w),
         None => match discovery_writer(&job.participant) {
             Ok(w) => Arc::new(w),
             Err(e) => {
                 tracing::warn!("cannot create the {DISCOVERY_TOPIC} writer: {e}");
-                return None;
+                return (None, false);
             }
         },
     };
-    if let Err(e) = writer.write(&job.body) {
-        tracing::warn!("{DISCOVERY_TOPIC} sample not published: {e}");
-    }
-    Some(writer)
+    // With one sample of room, a write waits for the previous sample's acknowledgments (100 ms at most);
+    // a sample that did not go out is tried again with the next round.
+    let sent = match writer.write(&job.body) {
+        Ok(_) => true,
+        Err(e) => {
+            tracing::debug!("{DISCOVERY_TOPIC} sample not published yet: {e}");
+            false
+        }
+    };
+    (Some(writer), sent)
 }
 
 fn run(shared: &Shared) {
@@ -409,11 +470,16 @@ fn run(shared: &Shared) {
                 return;
             }
         }
-        std::thread::sleep(COALESCE);
+        let nodes: usize = lock(&shared.state).entries.values().map(|e| e.nodes.len()).sum();
+        let per_node = COALESCE_PER_NODE.saturating_mul(u32::try_from(nodes).unwrap_or(u32::MAX));
+        std::thread::sleep(COALESCE.saturating_add(per_node).min(COALESCE_MAX));
         let jobs = gather(&mut lock(&shared.state), shared.gid_len);
         for job in jobs {
-            let writer = publish(&job);
-            if job.retire {
+            let (writer, sent) = publish(&job);
+            if !sent {
+                lock(&shared.state).dirty.insert(job.guid);
+            }
+            if job.retire && sent {
                 if let Some(w) = &writer {
                     // Best effort: the DDS participant may go right after, taking its nodes with it anyway.
                     let _acked = w.wait_for_acknowledgments(RETIRE_ACK_WAIT);
@@ -423,7 +489,7 @@ fn run(shared: &Shared) {
                 let mut st = lock(&shared.state);
                 let pending = st.dirty.contains(&job.guid);
                 match st.entries.get_mut(&job.guid) {
-                    Some(e) if job.retire && e.nodes.is_empty() && !pending => st.entries.remove(&job.guid),
+                    Some(e) if job.retire && sent && e.nodes.is_empty() && !pending => st.entries.remove(&job.guid),
                     // Nodes came back meanwhile, or another sample follows: keep the writer.
                     Some(e) => {
                         e.writer = writer;
@@ -459,6 +525,10 @@ mod tests {
         assert_eq!(node_name(""), None);
         assert_eq!(node_name(&"x".repeat(257)), None);
         assert_eq!(node_name(&"x".repeat(256)), nn("/", &"x".repeat(256)));
+        assert_eq!(node_name("a/"), nn("/", "a/"), "one segment: the whole, as micro-ROS");
+        assert_eq!(node_name("a//"), None, "an empty name");
+        assert_eq!(node_name("//x"), nn("/", "x"));
+        assert_eq!(node_name("a/b//"), nn("/a", "b/"));
     }
 
     fn gid(b: u8) -> Gid {
@@ -469,9 +539,9 @@ mod tests {
 
     #[test]
     fn participant_info_encodes_as_rmw_dds_common() {
-        let talker = NodeName { namespace: "/".into(), name: "talker".into() };
-        let nodes = [NodeEntities { name: &talker, readers: &[], writers: &[gid(7)] }];
-        let body = encode_participant_info(&gid(1), &nodes, 16);
+        let mut enc = InfoEncoder::new(&gid(1), 16, 1);
+        enc.node(split_node_name("talker").unwrap(), &[], &[gid(7)]);
+        let body = enc.finish();
         let mut expected = gid(1).to_vec();
         expected.extend_from_slice(&1u32.to_le_bytes()); // one node
         expected.extend_from_slice(&2u32.to_le_bytes()); // "/" and its NUL
@@ -486,9 +556,9 @@ mod tests {
 
     #[test]
     fn humble_gids_are_24_bytes_zero_padded() {
-        let ns = NodeName { namespace: "/ns".into(), name: "n".into() };
-        let nodes = [NodeEntities { name: &ns, readers: &[gid(2)], writers: &[] }];
-        let body = encode_participant_info(&gid(1), &nodes, 24);
+        let mut enc = InfoEncoder::new(&gid(1), 24, 1);
+        enc.node(split_node_name("/ns/n").unwrap(), &[gid(2)], &[]);
+        let body = enc.finish();
         assert_eq!(&body[..16], &gid(1));
         assert_eq!(&body[16..24], &[0; 8]);
         assert_eq!(&body[24..28], &1u32.to_le_bytes());
@@ -506,7 +576,7 @@ mod tests {
 
     #[test]
     fn empty_participant_lists_no_node() {
-        let body = encode_participant_info(&gid(3), &[], 16);
+        let body = InfoEncoder::new(&gid(3), 16, 0).finish();
         assert_eq!(body.len(), 20);
         assert_eq!(&body[16..], &[0; 4]);
         assert_eq!(RosGraphMode::default().gid_len(), Some(16));
