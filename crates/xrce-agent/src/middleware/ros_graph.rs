@@ -459,6 +459,20 @@ fn publish(job: &Job) -> (Option<Arc<RawWriter>>, bool) {
     (Some(writer), sent)
 }
 
+/// The agent stops: every DDS participant says it has no node left. Without this a ROS 2 node would list
+/// the clients until the participant's lease ran out, as RustDDS' last SPDP dispose does not always get
+/// out before its threads stop.
+fn farewell(writers: &[(Gid, Arc<RawWriter>)], gid_len: usize) {
+    for (guid, w) in writers {
+        if let Err(e) = w.write(&InfoEncoder::new(guid, gid_len, 0).finish()) {
+            tracing::debug!("last {DISCOVERY_TOPIC} sample not published: {e}");
+        }
+    }
+    for (_, w) in writers {
+        let _acked = w.wait_for_acknowledgments(RETIRE_ACK_WAIT);
+    }
+}
+
 fn run(shared: &Shared) {
     loop {
         {
@@ -467,6 +481,10 @@ fn run(shared: &Shared) {
                 st = shared.cond.wait(st).unwrap_or_else(std::sync::PoisonError::into_inner);
             }
             if st.shutdown {
+                let writers: Vec<(Gid, Arc<RawWriter>)> =
+                    st.entries.iter().filter_map(|(g, e)| e.writer.clone().map(|w| (*g, w))).collect();
+                drop(st);
+                farewell(&writers, shared.gid_len);
                 return;
             }
         }
