@@ -586,6 +586,11 @@ mod tests {
     #[test]
     fn middleware_values() {
         assert_eq!(ok("udp4 -p 1 -m dds").middleware, MiddlewareKind::Dds);
+        // Ours, long only: the ROS 2 graph of the DDS middleware.
+        assert_eq!(ok("udp4 -p 1").ros_graph, RosGraph::On);
+        assert_eq!(ok("udp4 -p 1 --ros-graph humble").ros_graph, RosGraph::Humble);
+        assert_eq!(ok("serial -D /dev/null --ros-graph off").ros_graph, RosGraph::Off);
+        assert!(parse("udp4 -p 1 --ros-graph iron").is_err());
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
         assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);
