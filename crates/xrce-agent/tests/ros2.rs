@@ -539,12 +539,12 @@ fn px4_best_effort_and_replier_with_ros() {
         ratio >= MIN_BEST_EFFORT_DELIVERY && first_rtt.is_some_and(|r| r <= MAX_FIRST_CALL_RTT_MS) && correct == CALLS;
     println!(
         "ROS2-SUMMARY px4_best_effort status_ok_to_first_sample_ms={} status_ok_to_ros_matched_ms={} \
-         after_match={arrived}/{expected} ({:.1} %) first_missing={:?} ros_calls_px4_first_rtt_ms={} \
+         after_match={arrived}/{expected} after_match_pct={:.1} first_missing={} ros_calls_px4_first_rtt_ms={} \
          ros_calls_px4_ok={correct}/{CALLS} pass={pass}",
         fmt_ms(first_contact),
         fmt_ms(to_match),
         ratio * 100.0,
-        missing.first(),
+        missing.first().map_or_else(|| "none".to_string(), u64::to_string),
         fmt_ms(first_rtt),
     );
     assert!(matched.is_some(), "the ROS node matched the PX4 writer");
@@ -610,8 +610,13 @@ fn ros_graph_lists_micro_ros_node_and_px4() {
     let px4_topic = has_topic("/fmu/out/vehicle_status");
     println!(
         "ROS2-SUMMARY graph uros_node={uros_node} px4_node={px4_node} uros_topic={uros_topic} \
-         px4_topic={px4_topic} after_ms={} nodes={nodes:?} pass={}",
+         px4_topic={px4_topic} after_ms={} nodes={} pass={}",
         fmt_ms(g["after_ms"].as_f64()),
+        nodes
+            .iter()
+            .map(|(n, ns)| format!("{ns}{}{n}", if ns.ends_with('/') { "" } else { "/" }))
+            .collect::<Vec<_>>()
+            .join(","),
         uros_node && px4_node && uros_topic && px4_topic
     );
     assert!(uros_ok, "the micro-ROS-like node created its entities");
