@@ -21,7 +21,7 @@ if [ "${AGENT:-}" = release ]; then
 fi
 # Build outside the namespace; only run inside it.
 exe=$(cargo test -q -p xrce-agent --test ros2 --no-run --message-format=json 2>/dev/null \
-  | grep -o '"executable":"[^"]*"' | tail -1 | cut -d'"' -f4)
+  | grep '"name":"ros2","src_path"' | grep -o '"executable":"[^"]*"' | tail -1 | cut -d'"' -f4)
 [ -x "$exe" ] || { echo "could not build the ros2 test" >&2; exit 2; }
 out=target/ros2-runs
 mkdir -p "$out"
