@@ -576,6 +576,10 @@ fn ros_graph_lists_micro_ros_node_and_px4() {
     plan.publish = Some(PubPlan { topic: "uros_graph_topic".into(), count: 1000, period_ms: 100, max_warmup: 0 });
     plan.subscribe = Some("uros_graph_in".into());
     let mut uros = Client::micro_ros(plan);
+    // A node in a namespace: rmw_microxrcedds names its participant "<namespace>/<name>".
+    let mut plan = micro_ros(PORT, 0x0001_0007, "/robot/uros_ns_node");
+    plan.subscribe = Some("uros_graph_topic".into());
+    let mut uros_ns = Client::micro_ros(plan);
     let px4 = Client::px4(Px4Plan {
         agent: "127.0.0.1".into(),
         port: PORT,
@@ -588,14 +592,26 @@ fn ros_graph_lists_micro_ros_node_and_px4() {
     });
     uros.control.go.store(true, Ordering::Relaxed);
     px4.control.go.store(true, Ordering::Relaxed);
-    let uros_ok = uros.created("datareader", Duration::from_secs(5)).is_some();
+    let uros_ok = uros.created("datareader", Duration::from_secs(5)).is_some()
+        && uros_ns.created("datareader", Duration::from_secs(5)).is_some();
     let mut graph = RosPeer::start(
         "ros_graph_reader",
-        &["graph", "--expect", "uros_graph_node", "--expect", "px4_micro_xrce_dds", "--timeout", "5"],
+        &[
+            "graph",
+            "--expect",
+            "uros_graph_node",
+            "--expect",
+            "uros_ns_node",
+            "--expect",
+            "px4_micro_xrce_dds",
+            "--timeout",
+            "5",
+        ],
     );
     let g = graph.wait_for("graph", Duration::from_secs(20));
     let _ = graph.stop();
     let _ = uros.finish(Duration::ZERO);
+    let _ = uros_ns.finish(Duration::ZERO);
     let _ = px4.finish(Duration::ZERO);
     let g = g.unwrap_or(Value::Null);
     let nodes: Vec<(String, String)> = g["nodes"]
@@ -613,15 +629,17 @@ fn ros_graph_lists_micro_ros_node_and_px4() {
                 .collect()
         })
         .unwrap_or_default();
-    let has_node = |name: &str| nodes.iter().any(|(n, ns)| n == name && ns == "/");
+    let has_node_in = |name: &str, namespace: &str| nodes.iter().any(|(n, ns)| n == name && ns == namespace);
+    let has_node = |name: &str| has_node_in(name, "/");
     let has_topic =
         |name: &str| topics.iter().any(|(n, types)| n == name && types.iter().any(|t| t == "std_msgs/msg/String"));
     let uros_node = has_node("uros_graph_node");
     let px4_node = has_node("px4_micro_xrce_dds");
+    let ns_node = has_node_in("uros_ns_node", "/robot");
     let uros_topic = has_topic("/uros_graph_topic");
     let px4_topic = has_topic("/fmu/out/vehicle_status");
     println!(
-        "ROS2-SUMMARY graph uros_node={uros_node} px4_node={px4_node} uros_topic={uros_topic} \
+        "ROS2-SUMMARY graph uros_node={uros_node} uros_ns_node={ns_node} px4_node={px4_node} uros_topic={uros_topic} \
          px4_topic={px4_topic} after_ms={} nodes={} pass={}",
         fmt_ms(g["after_ms"].as_f64()),
         nodes
@@ -629,10 +647,56 @@ fn ros_graph_lists_micro_ros_node_and_px4() {
             .map(|(n, ns)| format!("{ns}{}{n}", if ns.ends_with('/') { "" } else { "/" }))
             .collect::<Vec<_>>()
             .join(","),
-        uros_node && px4_node && uros_topic && px4_topic
+        uros_node && ns_node && px4_node && uros_topic && px4_topic
     );
     assert!(uros_ok, "the micro-ROS-like node created its entities");
     assert!(uros_topic && px4_topic, "the XRCE topics in the ROS graph: {topics:?}");
     assert!(uros_node, "the micro-ROS node in get_node_names_and_namespaces(): {nodes:?}");
     assert!(px4_node, "the PX4 participant in get_node_names_and_namespaces(): {nodes:?}");
+    assert!(ns_node, "/robot/uros_ns_node in get_node_names_and_namespaces(): {nodes:?}");
+}
+
+/// Without DDS (so not ignored): the micro-ROS-like clients through the agent's CED middleware, one publishing
+/// and serving, the other subscribing and calling. Checks that their binary creation (named participant,
+/// REUSE|REPLACE, requester/replier with rq/rr topics) is accepted and that data and calls get through.
+#[test]
+fn micro_ros_like_clients_through_ced() {
+    const PORT: u16 = 18_936;
+    const COUNT: u64 = 20;
+    const CALLS: u32 = 5;
+    let mut agent = Command::new(env!("CARGO_BIN_EXE_xrce-agent"))
+        .args(["udp4", "-p", &PORT.to_string(), "-m", "ced", "-v", "3"])
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("agent starts");
+    std::thread::sleep(Duration::from_millis(300));
+    let mut plan = micro_ros(PORT, 0x0002_0001, "uros_server");
+    plan.serve = Some("ced_set_bool".into());
+    plan.publish = Some(PubPlan { topic: "ced_chatter".into(), count: COUNT, period_ms: 10, max_warmup: 0 });
+    let mut server = Client::micro_ros(plan);
+    assert!(server.created("replier", Duration::from_secs(5)).is_some(), "the replier exists");
+    let mut plan = micro_ros(PORT, 0x0002_0002, "/robot/uros_client");
+    plan.subscribe = Some("ced_chatter".into());
+    plan.call = Some(("ced_set_bool".into(), CALLS));
+    let mut client = Client::micro_ros(plan);
+    assert!(client.created("requester", Duration::from_secs(5)).is_some(), "the requester exists");
+    // The subscriber exists: the publisher may start.
+    server.control.go.store(true, Ordering::Relaxed);
+    let _ =
+        client.wait_for(|e| e.name == "reply" && e.u("call") == Some(u64::from(CALLS) - 1), Duration::from_secs(15));
+    let _ = client.wait_for(|e| e.name == "sample" && e.u("i") == Some(COUNT - 1), Duration::from_secs(5));
+    let client_events = client.finish(Duration::ZERO);
+    let server_events = server.finish(Duration::ZERO);
+    let _ = agent.kill();
+    let _ = agent.wait();
+    let samples: BTreeSet<u64> = client_events
+        .iter()
+        .filter(|e| e.name == "sample" && e.s("tag") == Some("m"))
+        .filter_map(|e| e.u("i"))
+        .collect();
+    let correct = client_events.iter().filter(|e| e.name == "reply" && e.b("correct") == Some(true)).count();
+    let served = server_events.iter().filter(|e| e.name == "request").count();
+    assert_eq!(samples, (0..COUNT).collect(), "every sample reached the subscriber");
+    assert!(served >= CALLS as usize, "the replier served {served} requests");
+    assert_eq!(correct, CALLS as usize, "every call answered correctly");
 }

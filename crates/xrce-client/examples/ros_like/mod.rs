@@ -516,7 +516,10 @@ impl Calling {
                 let matches = reply_id == id;
                 let rtt_ms = when.saturating_duration_since(at).as_secs_f64() * 1e3;
                 let (success, message) = parsed.unwrap_or((false, String::new()));
-                let correct = matches && success == value && message.starts_with(&format!("ros {value} "));
+                // Both ends answer `success = data` and `"<who> <data> <n>"`.
+                let correct = matches
+                    && success == value
+                    && message.split(' ').nth(1) == Some(if value { "true" } else { "false" });
                 if matches {
                     self.pending = None;
                     self.ok += u64::from(correct);
