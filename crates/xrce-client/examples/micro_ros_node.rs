@@ -38,7 +38,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let plan = MicroRosPlan {
         agent: args.get("agent").unwrap_or("127.0.0.1").to_string(),
         port: args.num("port", 8888)?,
-        key: args.num("key", 0x0000_5a5a)?,
+        // Two clients with one key are one client to the agent: derive a default from the process id.
+        key: args.num("key", 0x5a00_0000 | std::process::id())?,
         node: args.get("node").unwrap_or("micro_ros_node").to_string(),
         domain: args.num("domain", 0)?,
         publish: match args.get("pub") {

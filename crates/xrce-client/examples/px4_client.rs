@@ -34,7 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let plan = Px4Plan {
         agent: args.get("agent").unwrap_or("127.0.0.1").to_string(),
         port: args.num("port", 8888)?,
-        key: args.num("key", 0x0000_9f40)?,
+        // Two clients with one key are one client to the agent: derive a default from the process id.
+        key: args.num("key", 0x9f00_0000 | std::process::id())?,
         domain: args.num("domain", 0)?,
         publish: match args.get("pub") {
             Some(t) => Some(PubPlan {

@@ -424,6 +424,8 @@ pub fn run_micro_ros(
         let wait = pubber.as_ref().map_or(20, |p| p.wait_ms()).min(caller.as_ref().map_or(20, |c| c.wait_ms()));
         session.run_session_timeout(i32::try_from(wait).unwrap_or(20))?;
     }
+    // What is written is delivered to the agent before the session goes.
+    session.run_session_until_confirm_delivery(1000)?;
     let h = session.callbacks();
     let done = Event::new("done")
         .with("written", Val::U(pubber.as_ref().map_or(0, |p| p.counted)))
