@@ -5,7 +5,7 @@
 # usage: scripts/ros2-first-contact.sh [N] [TEST_FILTER]     (needs root for the namespace)
 #   XRCE_ROS_VENV   the ROS 2 venv (default: target/ros2-venv, made by .ci/ros2-venv.sh)
 #   AGENT=release   measure the release agent (built here) instead of the tests' debug binary
-#   XRCE_ROS_AGENT  any other agent binary
+#   XRCE_ROS_AGENT  any other agent binary with the same command line (eProsima's MicroXRCEAgent, say)
 # The raw output of every run is kept in target/ros2-runs/run-K.log.
 set -euo pipefail
 cd "$(dirname "$0")/.."
