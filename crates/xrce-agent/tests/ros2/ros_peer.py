@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""The ROS 2 side of xrce-rs's ROS 2 suite (crates/xrce-agent/tests/ros2.rs): one rclpy node per run.
+
+Every line on stdout is one JSON object with an "event" key and wall-clock ("wall_ns", time.time_ns()) and
+monotonic ("mono_ns") timestamps, so a test on the same machine can compare them with its own clock.
+
+Modes (run `ros_peer.py MODE --help`):
+  sub    subscribe to a topic; print each sample as it arrives, "matched" when a writer is matched
+  pub    wait until the publisher matches a subscription, then publish N samples "<tag> <i> <wall_ns>"
+  serve  serve a std_srvs/srv/SetBool service (success = data, message = "ros <data> <count>")
+  call   wait for a SetBool service, call it N times, time each round trip
+  graph  poll get_node_names_and_namespaces()/get_topic_names_and_types() until the expected nodes appear
+
+Needs a ROS 2 Jazzy environment (the suite uses a venv: LD_LIBRARY_PATH=$VENV/lib AMENT_PREFIX_PATH=$VENV
+RMW_IMPLEMENTATION=rmw_fastrtps_cpp FASTDDS_BUILTIN_TRANSPORTS=UDPv4) and must run inside a loopback-only
+network namespace (../shared/dds-peers/netns.sh).
+"""
+
+import argparse
+import json
+import sys
+import time
+
+import rclpy
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Int32, String
+from std_srvs.srv import SetBool
+
+
+def emit(event, **fields):
+    line = {"event": event, "wall_ns": time.time_ns(), "mono_ns": time.monotonic_ns()}
+    line.update(fields)
+    print(json.dumps(line), flush=True)
+
+
+def qos(args):
+    return QoSProfile(
+        reliability=ReliabilityPolicy.BEST_EFFORT if args.best_effort else ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if args.transient_local else DurabilityPolicy.VOLATILE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=args.depth,
+    )
+
+
+MSG_TYPES = {"string": String, "int32": Int32}
+
+
+def spin_until(node, done, timeout_s):
+    deadline = time.monotonic() + timeout_s
+    while rclpy.ok() and not done() and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=min(0.05, max(0.0, deadline - time.monotonic())))
+    return done()
+
+
+def run_sub(node, args):
+    received = []
+
+    def on_matched(info):
+        emit("matched", count=info.current_count, change=info.current_count_change)
+
+    def on_sample(msg):
+        received.append(msg.data)
+        emit("sample", data=msg.data, n=len(received))
+
+    node.create_subscription(
+        MSG_TYPES[args.type],
+        args.topic,
+        on_sample,
+        qos(args),
+        event_callbacks=SubscriptionEventCallbacks(matched=on_matched),
+    )
+    emit("ready", node=node.get_name(), topic=args.topic)
+    spin_until(node, lambda: args.count > 0 and len(received) >= args.count, args.timeout)
+    emit("done", received=len(received))
+
+
+def run_pub(node, args):
+    matched = []
+
+    def on_matched(info):
+        matched.append(info.current_count)
+        emit("matched", count=info.current_count, change=info.current_count_change)
+
+    publisher = node.create_publisher(
+        MSG_TYPES[args.type],
+        args.topic,
+        qos(args),
+        event_callbacks=PublisherEventCallbacks(matched=on_matched),
+    )
+    emit("ready", node=node.get_name(), topic=args.topic)
+    if not spin_until(node, lambda: publisher.get_subscription_count() >= args.min_subscribers, args.timeout):
+        emit("done", sent=0, error="no subscription matched")
+        return
+    emit("start", subscriptions=publisher.get_subscription_count())
+    for i in range(args.count):
+        msg = MSG_TYPES[args.type]()
+        t = time.time_ns()
+        if args.type == "string":
+            msg.data = f"{args.tag} {i} {t}"
+        else:
+            msg.data = i
+        publisher.publish(msg)
+        emit("sent", i=i, t=t)
+        spin_until(node, lambda: False, args.period_ms / 1000.0)
+    # Stay a while so that reliable repairs can complete before the writer goes away.
+    spin_until(node, lambda: False, args.linger)
+    emit("done", sent=args.count)
+
+
+def run_serve(node, args):
+    served = []
+
+    def on_request(request, response):
+        served.append(request.data)
+        response.success = bool(request.data)
+        response.message = f"ros {str(request.data).lower()} {len(served)}"
+        emit("request", data=bool(request.data), n=len(served))
+        return response
+
+    node.create_service(SetBool, args.service, on_request)
+    emit("ready", node=node.get_name(), service=args.service)
+    spin_until(node, lambda: args.count > 0 and len(served) >= args.count, args.timeout)
+    # Let the last reply go out.
+    spin_until(node, lambda: False, args.linger)
+    emit("done", served=len(served))
+
+
+def run_call(node, args):
+    client = node.create_client(SetBool, args.service)
+    emit("ready", node=node.get_name(), service=args.service)
+    t0 = time.monotonic()
+    deadline = t0 + args.timeout
+    while not client.service_is_ready() and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.01)
+    if not client.service_is_ready():
+        emit("done", calls=0, ok=0, error="service not available")
+        return
+    emit("available", after_ms=(time.monotonic() - t0) * 1e3)
+    ok = 0
+    for i in range(args.count):
+        request = SetBool.Request()
+        request.data = i % 2 == 0
+        start = time.monotonic()
+        future = client.call_async(request)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=args.call_timeout)
+        rtt_ms = (time.monotonic() - start) * 1e3
+        if not future.done():
+            client.remove_pending_request(future)
+            emit("timeout", i=i, after_ms=rtt_ms)
+            continue
+        reply = future.result()
+        ok += 1
+        emit("reply", i=i, request=request.data, rtt_ms=rtt_ms, success=reply.success, message=reply.message)
+    emit("done", calls=args.count, ok=ok)
+
+
+def run_graph(node, args):
+    expect = set(args.expect)
+    t0 = time.monotonic()
+
+    def snapshot():
+        nodes = [[name, ns] for name, ns in node.get_node_names_and_namespaces()]
+        return nodes, [[name, list(types)] for name, types in node.get_topic_names_and_types()]
+
+    def complete():
+        names = {name for name, _ in snapshot()[0]}
+        return expect <= names
+
+    spin_until(node, complete, args.timeout)
+    nodes, topics = snapshot()
+    emit("graph", nodes=nodes, topics=topics, complete=complete(), after_ms=(time.monotonic() - t0) * 1e3)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--node", default="ros_peer", help="node name")
+    sub = parser.add_subparsers(dest="mode", required=True)
+
+    def topic_args(p):
+        p.add_argument("--topic", required=True)
+        p.add_argument("--type", choices=sorted(MSG_TYPES), default="string")
+        p.add_argument("--best-effort", action="store_true", help="best effort instead of reliable")
+        p.add_argument("--transient-local", action="store_true", help="transient local instead of volatile")
+        p.add_argument("--depth", type=int, default=10)
+
+    p = sub.add_parser("sub", help="subscribe and print samples")
+    topic_args(p)
+    p.add_argument("--count", type=int, default=0, help="stop after this many samples (0: run until timeout)")
+    p.add_argument("--timeout", type=float, default=30.0)
+
+    p = sub.add_parser("pub", help="publish after a subscription matched")
+    topic_args(p)
+    p.add_argument("--count", type=int, default=20)
+    p.add_argument("--period-ms", type=float, default=20.0)
+    p.add_argument("--tag", default="ros")
+    p.add_argument("--min-subscribers", type=int, default=1)
+    p.add_argument("--timeout", type=float, default=30.0, help="how long to wait for a subscription")
+    p.add_argument("--linger", type=float, default=1.0)
+
+    p = sub.add_parser("serve", help="serve std_srvs/srv/SetBool")
+    p.add_argument("--service", required=True)
+    p.add_argument("--count", type=int, default=0, help="stop after this many requests (0: run until timeout)")
+    p.add_argument("--timeout", type=float, default=30.0)
+    p.add_argument("--linger", type=float, default=0.5)
+
+    p = sub.add_parser("call", help="call std_srvs/srv/SetBool")
+    p.add_argument("--service", required=True)
+    p.add_argument("--count", type=int, default=5)
+    p.add_argument("--timeout", type=float, default=30.0, help="how long to wait for the service")
+    p.add_argument("--call-timeout", type=float, default=5.0)
+
+    p = sub.add_parser("graph", help="print the ROS graph")
+    p.add_argument("--expect", action="append", default=[], help="node name to wait for (repeatable)")
+    p.add_argument("--timeout", type=float, default=10.0)
+
+    args = parser.parse_args()
+    rclpy.init()
+    node = rclpy.create_node(args.node)
+    try:
+        {"sub": run_sub, "pub": run_pub, "serve": run_serve, "call": run_call, "graph": run_graph}[args.mode](
+            node, args
+        )
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
