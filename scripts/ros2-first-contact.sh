@@ -12,6 +12,8 @@ cd "$(dirname "$0")/.."
 runs=${1:-10}
 filter=${2:-}
 export XRCE_ROS_VENV=${XRCE_ROS_VENV:-$PWD/target/ros2-venv}
+# The first-contact thresholds are asserted here (the CI run only prints them; see tests/ros2.rs).
+export XRCE_ROS_STRICT=${XRCE_ROS_STRICT:-1}
 [ -x "$XRCE_ROS_VENV/bin/python" ] || { echo "no venv at $XRCE_ROS_VENV (run .ci/ros2-venv.sh $XRCE_ROS_VENV)" >&2; exit 2; }
 netns=target/dds-peers/netns.sh
 [ -x "$netns" ] || netns=../shared/dds-peers/netns.sh
