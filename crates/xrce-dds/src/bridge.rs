@@ -42,6 +42,8 @@ fn create_err(what: &'static str) -> impl FnOnce(rustdds::dds::CreateError) -> D
 /// How the bridge builds participants.
 #[derive(Debug, Clone, Default)]
 pub struct BridgeConfig {
+    /// Which DDS implementation serves the participants (default: [`Engine::from_env`]).
+    pub engine: crate::engine::Engine,
     /// Restrict RustDDS to these local addresses (tests pass `127.0.0.1`); `None` uses every interface.
     pub only_networks: Option<Vec<IpAddr>>,
     /// Domain used for XRCE domain 255; `None` reads [`DOMAIN_OVERRIDE_ENV`] at each participant creation,
@@ -76,7 +78,7 @@ impl std::fmt::Debug for DdsBridge {
 }
 
 impl DdsBridge {
-    /// A bridge with no participant yet.
+    /// A bridge with no participant yet (rustdds engine, whatever `config.engine` says).
     pub fn new(config: BridgeConfig) -> Self {
         Self { config, participants: Mutex::new(HashMap::new()) }
     }
@@ -114,6 +116,11 @@ impl DdsBridge {
         map.insert(key, Arc::downgrade(&inner));
         tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created");
         Ok(Participant { inner })
+    }
+
+    /// The configuration it was built with.
+    pub(crate) fn config(&self) -> &BridgeConfig {
+        &self.config
     }
 
     /// DDS participants alive now.
@@ -459,7 +466,7 @@ mod tests {
 
     #[test]
     fn domain_255_takes_the_override_and_others_are_checked() {
-        let b = DdsBridge::new(BridgeConfig { only_networks: None, domain_override: Some(42) });
+        let b = DdsBridge::new(BridgeConfig { domain_override: Some(42), ..BridgeConfig::default() });
         assert_eq!(b.resolve_domain(255).unwrap(), 42);
         assert_eq!(b.resolve_domain(7).unwrap(), 7);
         assert!(b.resolve_domain(233).is_err());

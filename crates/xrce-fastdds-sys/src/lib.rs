@@ -440,7 +440,11 @@ impl Reader {
     pub fn matched(&self) -> i32 {
         let r = self.inner.r.lock().unwrap_or_else(PoisonError::into_inner);
         // SAFETY: live reader (checked non-null under the lock).
-        if r.is_null() { -1 } else { unsafe { ffi::xf_reader_matched(*r) } }
+        if r.is_null() {
+            -1
+        } else {
+            unsafe { ffi::xf_reader_matched(*r) }
+        }
     }
 
     /// A handle taking from this reader from another thread.
