@@ -141,7 +141,7 @@ struct ParticipantInner {
     dispatcher: Dispatcher,
     topics: Mutex<HashMap<String, TopicEntry>>,
     /// Writers shared by every XRCE datawriter with the same topic and QoS (see [`Participant::shared_writer`]).
-    writers: Mutex<HashMap<(String, EndpointQos), Weak<RawWriter>>>,
+    writers: Mutex<HashMap<(String, EndpointQos), Weak<crate::engine::RawWriter>>>,
     subscriber: Subscriber,
     publisher: Publisher,
     participant: DomainParticipant,
@@ -268,7 +268,11 @@ impl Participant {
     /// writer (one GUID, one history, one discovery announcement) instead of a writer each (about 20 KiB
     /// and an SEDP record at every peer). DDS readers see one publisher where eProsima's agent shows one per
     /// XRCE datawriter; samples, order per writer and reliability are the same.
-    pub fn shared_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<Arc<RawWriter>, DdsError> {
+    pub fn shared_writer(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+    ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
         let key = (topic.name(), qos.clone());
         let mut map = lock(&self.inner.writers);
         if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
@@ -278,7 +282,7 @@ impl Participant {
         if map.len() >= 16 && map.len().is_power_of_two() {
             map.retain(|_, w| w.strong_count() > 0);
         }
-        let w = Arc::new(self.create_writer(topic, qos)?);
+        let w = Arc::new(crate::engine::RawWriter::Rust(Arc::new(self.create_writer(topic, qos)?)));
         map.insert(key, Arc::downgrade(&w));
         Ok(w)
     }

@@ -227,9 +227,9 @@ impl Participant {
     /// use and deleted with the last handle (one DDS writer for thousands of XRCE datawriters).
     pub fn shared_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<Arc<RawWriter>, DdsError> {
         match (self, topic) {
-            (Self::Rust(p), RawTopic::Rust(t)) => Ok(Arc::new(RawWriter::Rust(p.shared_writer(t, qos)?))),
+            (Self::Rust(p), RawTopic::Rust(t)) => p.shared_writer(t, qos),
             #[cfg(feature = "fastdds")]
-            (Self::Fast(p), RawTopic::Fast(t)) => Ok(Arc::new(RawWriter::Fast(p.shared_writer(t, qos)?))),
+            (Self::Fast(p), RawTopic::Fast(t)) => p.shared_writer(t, qos),
             #[cfg(feature = "fastdds")]
             _ => Err(mixed()),
         }

@@ -92,7 +92,7 @@ struct TopicEntry {
 
 struct ParticipantInner {
     topics: Mutex<HashMap<String, TopicEntry>>,
-    writers: Mutex<HashMap<(String, EndpointQos), Weak<RawWriter>>>,
+    writers: Mutex<HashMap<(String, EndpointQos), Weak<crate::engine::RawWriter>>>,
     participant: sys::Participant,
     key: ParticipantKey,
 }
@@ -204,7 +204,11 @@ impl Participant {
         })
     }
 
-    pub(crate) fn shared_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<Arc<RawWriter>, DdsError> {
+    pub(crate) fn shared_writer(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+    ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
         let key = (topic.name.clone(), qos.clone());
         let mut map = lock(&self.inner.writers);
         if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
@@ -214,7 +218,7 @@ impl Participant {
         if map.len() >= 16 && map.len().is_power_of_two() {
             map.retain(|_, w| w.strong_count() > 0);
         }
-        let w = Arc::new(self.create_writer(topic, qos)?);
+        let w = Arc::new(crate::engine::RawWriter::Fast(Arc::new(self.create_writer(topic, qos)?)));
         map.insert(key, Arc::downgrade(&w));
         Ok(w)
     }
