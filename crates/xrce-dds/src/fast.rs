@@ -142,11 +142,15 @@ impl RawTopic {
 
 /// The Fast DDS QoS of an endpoint. Writers keep the XRCE history and the bounded limits of
 /// [`EndpointQos::effective_limits`]; a reliable write waits at most `max_blocking_time` for room. Keyed raw
-/// readers are KEEP_ALL for the reason given in `raw.rs` (one local instance for all real instances).
+/// readers are KEEP_ALL for the reason given in `raw.rs` (one local instance for all real instances), and so
+/// are reliable readers: while their queue is paused, samples wait in Fast DDS' history, and a KEEP_LAST one
+/// would overwrite them (measured: 975 of 5,000 lost behind a slow XRCE subscriber) where KEEP_ALL stops
+/// acknowledging and so holds the writer back.
 fn to_fast(qos: &EndpointQos, reader: bool, keyed: bool) -> sys::Qos {
     let limits = qos.effective_limits();
+    let hold = reader && (keyed || qos.reliability == Reliability::Reliable);
     let keep_last = match qos.history {
-        History::KeepLast(d) if !(reader && keyed) => Some(d.max(1)),
+        History::KeepLast(d) if !hold => Some(d.max(1)),
         _ => None,
     };
     sys::Qos {
