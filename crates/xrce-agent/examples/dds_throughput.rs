@@ -40,7 +40,7 @@ fn run(port: u16, reliable: bool, duration: Duration) -> Result<(), Box<dyn std:
     let name = if reliable { "reliable" } else { "best-effort" };
     let topic = format!("Throughput_{name}");
     // DDS subscriber: reliable KEEP_ALL, or best effort KEEP_LAST 1000.
-    let cfg = BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), domain_override: None };
+    let cfg = BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), ..BridgeConfig::default() };
     let bridge = DdsBridge::new(cfg);
     let p = bridge.participant(0, "")?;
     let t = p.topic(&topic, "Perf", false)?;

@@ -129,8 +129,18 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         config: CoreConfig,
         ros_graph: RosGraphMode,
     ) -> Result<Self, UnsupportedMiddleware> {
+        Self::with_dds(kind, config, ros_graph, None)
+    }
+
+    /// As [`Agent::with_ros_graph`], with the DDS engine (`--dds-engine`; `None`: `XRCE_DDS_ENGINE`).
+    pub fn with_dds(
+        kind: MiddlewareKind,
+        config: CoreConfig,
+        ros_graph: RosGraphMode,
+        engine: Option<xrce_dds::Engine>,
+    ) -> Result<Self, UnsupportedMiddleware> {
         let profiles = Arc::new(StoreProfiles::new());
-        let middleware = kind.build_with(profiles.clone(), ros_graph)?;
+        let middleware = kind.build_with_engine(profiles.clone(), ros_graph, engine)?;
         let callbacks = CallbackRegistry::default();
         let wrapped: DynMiddleware = Box::new(WithCallbacks::with_registry(middleware, callbacks.clone()));
         let core = Arc::new(Mutex::new(AgentCore::new(config, wrapped)));
@@ -291,16 +301,18 @@ impl AgentInstance {
     pub fn from_config(config: Config) -> Result<Self, AgentError> {
         let kind = to_cli_kind(config.middleware);
         let graph = to_graph_mode(config.ros_graph);
+        let engine = config.dds_engine.map(xrce_dds::Engine::from);
         let stop = Arc::new(AtomicBool::new(false));
         if config.p2p.is_some() {
             tracing::warn!("-P/--p2p is not implemented yet; ignored");
         }
         let (agent, server, local_addr) = match config.transport {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
-                let agent = Agent::<SocketAddr>::with_ros_graph(
+                let agent = Agent::<SocketAddr>::with_dds(
                     kind,
                     CoreConfig { info_port: port, ..CoreConfig::default() },
                     graph,
+                    engine,
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
@@ -312,10 +324,11 @@ impl AgentInstance {
                 (AgentHandle::Udp(agent), handle, Some(local))
             }
             Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
-                let agent = Agent::<ConnId>::with_ros_graph(
+                let agent = Agent::<ConnId>::with_dds(
                     kind,
                     CoreConfig { info_port: port, ..CoreConfig::default() },
                     graph,
+                    engine,
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
@@ -428,7 +441,8 @@ fn start_serial(
     lines: Vec<crate::transport::serial::Line>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    let agent = Agent::with_ros_graph(kind, CoreConfig::default(), to_graph_mode(config.ros_graph))?;
+    let engine = config.dds_engine.map(xrce_dds::Engine::from);
+    let agent = Agent::with_dds(kind, CoreConfig::default(), to_graph_mode(config.ros_graph), engine)?;
     load_refs(config, &agent.profiles)?;
     let server = crate::transport::serial::SerialServer::new(lines, agent.core());
     tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");

@@ -64,6 +64,26 @@ pub struct Config {
     pub p2p: Option<u16>,
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
+    /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE` or rustdds.
+    pub dds_engine: Option<DdsEngine>,
+}
+
+/// What `--dds-engine` selects: the DDS implementation behind `-m dds`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DdsEngine {
+    /// Pure-Rust RustDDS.
+    Rustdds,
+    /// Fast DDS 2.9 (agent built with the `fastdds` feature).
+    Fastdds,
+}
+
+impl From<DdsEngine> for xrce_dds::Engine {
+    fn from(e: DdsEngine) -> Self {
+        match e {
+            DdsEngine::Rustdds => xrce_dds::Engine::RustDds,
+            DdsEngine::Fastdds => xrce_dds::Engine::FastDds,
+        }
+    }
 }
 
 impl Config {
@@ -209,6 +229,8 @@ Arguments per transport (place them after the transport):
       -P/--p2p <PORT>                 P2P discovery of other agents (CED middleware)
       --ros-graph <on|humble|off>     ROS 2 nodes for named XRCE participants (dds middleware; ours)
                                       [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
+      --dds-engine <rustdds|fastdds>  DDS implementation of the dds middleware (ours)
+                                      [default: $XRCE_DDS_ENGINE or rustdds; fastdds needs the feature]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)
@@ -292,6 +314,10 @@ struct CommonArgs {
     /// later; humble: 24-byte GIDs; off: nothing published on ros_discovery_info).
     #[arg(long, value_enum, value_name = "MODE", default_value_t = RosGraph::On)]
     ros_graph: RosGraph,
+
+    /// DDS implementation behind the dds middleware (default: $XRCE_DDS_ENGINE, else rustdds).
+    #[arg(long, value_enum, value_name = "ENGINE")]
+    dds_engine: Option<DdsEngine>,
 }
 
 #[derive(Debug, Args)]
@@ -435,6 +461,7 @@ impl Cli {
             discovery: common.discovery,
             p2p: common.p2p,
             ros_graph: common.ros_graph,
+            dds_engine: common.dds_engine,
         })
     }
 }
@@ -547,6 +574,7 @@ mod tests {
                 discovery: None,
                 p2p: None,
                 ros_graph: RosGraph::On,
+                dds_engine: None,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -591,6 +619,8 @@ mod tests {
         assert_eq!(ok("udp4 -p 1 --ros-graph humble").ros_graph, RosGraph::Humble);
         assert_eq!(ok("serial -D /dev/null --ros-graph off").ros_graph, RosGraph::Off);
         assert!(parse("udp4 -p 1 --ros-graph iron").is_err());
+        assert_eq!(ok("udp4 -p 1 --dds-engine fastdds").dds_engine, Some(DdsEngine::Fastdds));
+        assert!(parse("udp4 -p 1 --dds-engine cyclone").is_err());
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
         assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);

@@ -35,7 +35,7 @@ fn require_loopback_namespace() {
 }
 
 fn loopback() -> BridgeConfig {
-    BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), domain_override: None }
+    BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), ..BridgeConfig::default() }
 }
 
 /// The "other side": a separate bridge, hence a separate DDS participant, in the same domain.

@@ -27,7 +27,7 @@ fn main() {
 }
 
 fn run(name: &str, qos: &EndpointQos, n: u32) {
-    let cfg = BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), domain_override: None };
+    let cfg = BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), ..BridgeConfig::default() };
     let (a, b) = (DdsBridge::new(cfg.clone()), DdsBridge::new(cfg));
     let (pa, pb) = match (a.participant(0, ""), b.participant(0, "")) {
         (Ok(x), Ok(y)) => (x, y),

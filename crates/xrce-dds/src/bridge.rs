@@ -42,6 +42,8 @@ fn create_err(what: &'static str) -> impl FnOnce(rustdds::dds::CreateError) -> D
 /// How the bridge builds participants.
 #[derive(Debug, Clone, Default)]
 pub struct BridgeConfig {
+    /// Which DDS implementation serves the participants (default: [`Engine::from_env`]).
+    pub engine: crate::engine::Engine,
     /// Restrict RustDDS to these local addresses (tests pass `127.0.0.1`); `None` uses every interface.
     pub only_networks: Option<Vec<IpAddr>>,
     /// Domain used for XRCE domain 255; `None` reads [`DOMAIN_OVERRIDE_ENV`] at each participant creation,
@@ -76,7 +78,7 @@ impl std::fmt::Debug for DdsBridge {
 }
 
 impl DdsBridge {
-    /// A bridge with no participant yet.
+    /// A bridge with no participant yet (rustdds engine, whatever `config.engine` says).
     pub fn new(config: BridgeConfig) -> Self {
         Self { config, participants: Mutex::new(HashMap::new()) }
     }
@@ -116,6 +118,11 @@ impl DdsBridge {
         Ok(Participant { inner })
     }
 
+    /// The configuration it was built with.
+    pub(crate) fn config(&self) -> &BridgeConfig {
+        &self.config
+    }
+
     /// DDS participants alive now.
     pub fn participant_count(&self) -> usize {
         lock(&self.participants).values().filter(|w| w.strong_count() > 0).count()
@@ -134,7 +141,7 @@ struct ParticipantInner {
     dispatcher: Dispatcher,
     topics: Mutex<HashMap<String, TopicEntry>>,
     /// Writers shared by every XRCE datawriter with the same topic and QoS (see [`Participant::shared_writer`]).
-    writers: Mutex<HashMap<(String, EndpointQos), Weak<RawWriter>>>,
+    writers: Mutex<HashMap<(String, EndpointQos), Weak<crate::engine::RawWriter>>>,
     subscriber: Subscriber,
     publisher: Publisher,
     participant: DomainParticipant,
@@ -261,7 +268,11 @@ impl Participant {
     /// writer (one GUID, one history, one discovery announcement) instead of a writer each (about 20 KiB
     /// and an SEDP record at every peer). DDS readers see one publisher where eProsima's agent shows one per
     /// XRCE datawriter; samples, order per writer and reliability are the same.
-    pub fn shared_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<Arc<RawWriter>, DdsError> {
+    pub fn shared_writer(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+    ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
         let key = (topic.name(), qos.clone());
         let mut map = lock(&self.inner.writers);
         if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
@@ -271,7 +282,7 @@ impl Participant {
         if map.len() >= 16 && map.len().is_power_of_two() {
             map.retain(|_, w| w.strong_count() > 0);
         }
-        let w = Arc::new(self.create_writer(topic, qos)?);
+        let w = Arc::new(crate::engine::RawWriter::Rust(Arc::new(self.create_writer(topic, qos)?)));
         map.insert(key, Arc::downgrade(&w));
         Ok(w)
     }
@@ -459,7 +470,7 @@ mod tests {
 
     #[test]
     fn domain_255_takes_the_override_and_others_are_checked() {
-        let b = DdsBridge::new(BridgeConfig { only_networks: None, domain_override: Some(42) });
+        let b = DdsBridge::new(BridgeConfig { domain_override: Some(42), ..BridgeConfig::default() });
         assert_eq!(b.resolve_domain(255).unwrap(), 42);
         assert_eq!(b.resolve_domain(7).unwrap(), 7);
         assert!(b.resolve_domain(233).is_err());

@@ -1,5 +1,6 @@
 //! The DDS side of the XRCE agent: an untyped bridge from XRCE entities to a real DDS domain, built on the
-//! pure-Rust `rustdds` 0.15.1.
+//! pure-Rust `rustdds` 0.15.1 or, with the `fastdds` feature and [`Engine::FastDds`], on Fast DDS 2.9
+//! (see `engine.rs` for the dispatch).
 //!
 //! * [`DdsBridge`] shares DDS participants per (domain, profile) among XRCE participants, so thousands of
 //!   clients fit where eProsima's one-participant-per-client design dies at ~210 (issue 5 item 6).
@@ -17,16 +18,17 @@
 #![warn(missing_docs)]
 
 mod bridge;
+mod engine;
 mod error;
+#[cfg(feature = "fastdds")]
+mod fast;
 mod qos;
 mod raw;
 mod reader;
 mod service;
 
-pub use bridge::{
-    BridgeConfig, DdsBridge, Participant, ParticipantKey, RawReader, RawTopic, RawWriter, AGENT_DOMAIN,
-    DOMAIN_OVERRIDE_ENV, MAX_DOMAIN_ID,
-};
+pub use bridge::{BridgeConfig, ParticipantKey, AGENT_DOMAIN, DOMAIN_OVERRIDE_ENV, MAX_DOMAIN_ID};
+pub use engine::{DdsBridge, Engine, Participant, RawReader, RawTopic, RawWriter, ENGINE_ENV};
 pub use error::DdsError;
 pub use qos::{
     Durability, EndpointQos, History, Reliability, ResourceLimits, DEFAULT_KEEP_ALL_SAMPLES, MIN_KEEP_LAST_SAMPLES,

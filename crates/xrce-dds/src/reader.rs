@@ -115,9 +115,12 @@ struct QueueShared {
     state: Mutex<QueueState>,
     cond: Condvar,
     capacity: usize,
-    token: Token,
-    control: Arc<Control>,
+    /// Asks the queue's engine to take again after a pause (called without the queue lock held).
+    resume: Resume,
 }
+
+/// What un-pauses a queue: the rustdds dispatcher gets a command, the Fast DDS engine drains directly.
+pub(crate) type Resume = Arc<dyn Fn() + Send + Sync>;
 
 impl QueueShared {
     fn lock(&self) -> MutexGuard<'_, QueueState> {
@@ -183,7 +186,11 @@ impl SampleQueue {
     pub fn pop(&self) -> Option<ReceivedSample> {
         let mut st = self.shared.lock();
         let s = st.samples.pop_front();
-        self.maybe_resume(&mut st);
+        let resume = self.maybe_resume(&mut st);
+        drop(st);
+        if resume {
+            (self.shared.resume)();
+        }
         s
     }
 
@@ -192,7 +199,11 @@ impl SampleQueue {
         let mut st = self.shared.lock();
         let n = max.min(st.samples.len());
         out.extend(st.samples.drain(..n));
-        self.maybe_resume(&mut st);
+        let resume = self.maybe_resume(&mut st);
+        drop(st);
+        if resume {
+            (self.shared.resume)();
+        }
         n
     }
 
@@ -227,10 +238,80 @@ impl SampleQueue {
         }
     }
 
-    fn maybe_resume(&self, st: &mut QueueState) {
+    fn maybe_resume(&self, st: &mut QueueState) -> bool {
         if st.paused && st.samples.len() <= self.shared.capacity / 2 {
             st.paused = false;
-            self.shared.control.send(Command::Resume(self.shared.token));
+            return true;
+        }
+        false
+    }
+
+    /// A queue for an engine without the dispatcher; `resume` runs when a paused queue has room again.
+    #[cfg_attr(not(feature = "fastdds"), allow(dead_code))]
+    pub(crate) fn new_detached(capacity: usize, resume: Resume) -> Self {
+        Self { shared: Arc::new(QueueShared::new(capacity, resume)) }
+    }
+
+    /// Room for more samples; 0 marks the queue paused (its engine stops taking until it is drained).
+    pub(crate) fn room_or_pause(&self) -> usize {
+        let mut st = self.shared.lock();
+        let room = self.shared.capacity.saturating_sub(st.samples.len());
+        if room == 0 {
+            st.paused = true;
+        }
+        room
+    }
+
+    /// Appends a batch taken from DDS (through `filter`), records writer progress and wakes the agent.
+    pub(crate) fn deliver(&self, batch: &mut Vec<ReceivedSample>, filter: &mut Option<Filter>) {
+        let now = Instant::now();
+        let waker = {
+            let mut st = self.shared.lock();
+            let was_empty = st.samples.is_empty();
+            for s in batch.iter() {
+                let p = st.progress.entry(s.identity.writer_guid).or_insert((s.identity.sequence_number, now));
+                *p = (p.0.max(s.identity.sequence_number), now);
+            }
+            if st.progress.len() > PROGRESS_ENTRIES {
+                st.progress.retain(|_, (_, at)| now.duration_since(*at) < PROGRESS_FORGET);
+            }
+            for s in batch.drain(..) {
+                let s = match filter.as_mut() {
+                    Some(f) => match f(s) {
+                        Some(s) => s,
+                        None => continue,
+                    },
+                    None => s,
+                };
+                st.samples.push_back(s);
+                st.received += 1;
+            }
+            self.shared.cond.notify_all();
+            if was_empty && !st.samples.is_empty() {
+                st.waker.clone()
+            } else {
+                None
+            }
+        };
+        if let Some(w) = waker {
+            w();
+        }
+    }
+}
+
+impl QueueShared {
+    fn new(capacity: usize, resume: Resume) -> Self {
+        QueueShared {
+            state: Mutex::new(QueueState {
+                samples: VecDeque::new(),
+                paused: false,
+                waker: None,
+                received: 0,
+                progress: HashMap::new(),
+            }),
+            cond: Condvar::new(),
+            capacity: capacity.max(1),
+            resume,
         }
     }
 }
@@ -322,7 +403,7 @@ impl RawSource for with_key::DataReader<RawSample, RawAdapter> {
 }
 
 enum Command {
-    Add { token: Token, source: Box<dyn RawSource>, queue: Arc<QueueShared>, filter: Option<Filter> },
+    Add { token: Token, source: Box<dyn RawSource>, queue: SampleQueue, filter: Option<Filter> },
     Remove(Token),
     Resume(Token),
     Stop,
@@ -371,20 +452,17 @@ impl Dispatcher {
         filter: Option<Filter>,
     ) -> Result<(SampleQueue, Token), DdsError> {
         let token = Token(self.control.next_token.fetch_add(1, Ordering::Relaxed));
-        let shared = Arc::new(QueueShared {
-            state: Mutex::new(QueueState {
-                samples: VecDeque::new(),
-                paused: false,
-                waker: None,
-                received: 0,
-                progress: HashMap::new(),
-            }),
-            cond: Condvar::new(),
-            capacity: capacity.max(1),
-            token,
-            control: Arc::clone(&self.control),
+        let control = Arc::clone(&self.control);
+        let resume: Resume = Arc::new(move || {
+            control.send(Command::Resume(token));
         });
-        if !self.control.send(Command::Add { token, source, queue: Arc::clone(&shared), filter }) {
+        let shared = Arc::new(QueueShared::new(capacity, resume));
+        if !self.control.send(Command::Add {
+            token,
+            source,
+            queue: SampleQueue { shared: Arc::clone(&shared) },
+            filter,
+        }) {
             return Err(DdsError::DispatcherStopped);
         }
         Ok((SampleQueue { shared }, token))
@@ -409,7 +487,7 @@ impl Drop for Dispatcher {
 
 struct Entry {
     source: Box<dyn RawSource>,
-    queue: Arc<QueueShared>,
+    queue: SampleQueue,
     filter: Option<Filter>,
 }
 
@@ -467,53 +545,17 @@ fn run(mut poll: Poll, rx: mpsc::Receiver<Command>) {
 /// Moves everything RustDDS holds for one reader into its queue, as far as the queue has room.
 fn drain(entry: &mut Entry, batch: &mut Vec<ReceivedSample>) {
     loop {
-        let room = {
-            let mut st = entry.queue.lock();
-            let room = entry.queue.capacity.saturating_sub(st.samples.len());
-            if room == 0 {
-                st.paused = true;
-                return;
-            }
-            room
-        };
+        let room = entry.queue.room_or_pause();
+        if room == 0 {
+            return;
+        }
         batch.clear();
         entry.source.take(room.min(BATCH), batch);
         if batch.is_empty() {
             return;
         }
         let took = batch.len();
-        let now = Instant::now();
-        let waker = {
-            let mut st = entry.queue.lock();
-            let was_empty = st.samples.is_empty();
-            for s in batch.iter() {
-                let p = st.progress.entry(s.identity.writer_guid).or_insert((s.identity.sequence_number, now));
-                *p = (p.0.max(s.identity.sequence_number), now);
-            }
-            if st.progress.len() > PROGRESS_ENTRIES {
-                st.progress.retain(|_, (_, at)| now.duration_since(*at) < PROGRESS_FORGET);
-            }
-            for s in batch.drain(..) {
-                let s = match entry.filter.as_mut() {
-                    Some(f) => match f(s) {
-                        Some(s) => s,
-                        None => continue,
-                    },
-                    None => s,
-                };
-                st.samples.push_back(s);
-                st.received += 1;
-            }
-            entry.queue.cond.notify_all();
-            if was_empty && !st.samples.is_empty() {
-                st.waker.clone()
-            } else {
-                None
-            }
-        };
-        if let Some(w) = waker {
-            w();
-        }
+        entry.queue.deliver(batch, &mut entry.filter);
         if took < room.min(BATCH) {
             return;
         }

@@ -6,13 +6,16 @@
 //! under both parameter ids Fast DDS uses (PID 0x800f, Fast DDS ≤ 2.10, and 0x0083, the DDS-RPC value Fast
 //! DDS switched to in 2023) and reads either.
 //!
-//! As eProsima's agent does, a requester keeps only replies whose related writer GUID is its own request
-//! writer, and maps the related sequence number back to the XRCE request id of the WRITE_DATA.
+//! A requester keeps only replies whose related writer GUID is its own request writer (as eProsima's agent
+//! does) or its reply reader (rmw_fastrtps services relate replies to the client's reply reader when the
+//! request names it, and rmw_fastrtps clients accept both), and maps the related sequence number back to the
+//! XRCE request id of the WRITE_DATA.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 
-use crate::bridge::{lock_pending, Participant, RawReader, RawWriter};
+use crate::bridge::lock_pending;
+use crate::engine::{Participant, RawReader, RawWriter};
 use crate::error::DdsError;
 use crate::qos::EndpointQos;
 use crate::reader::{SampleIdentity, SampleQueue};
@@ -75,11 +78,14 @@ impl Requester {
         let rep_topic = participant.topic(&desc.reply_topic(), &desc.reply_type, false)?;
         let writer = participant.create_writer(&req_topic, qos)?;
         let own = writer.guid();
+        // Known only once the reader exists; no reply can arrive before a request, written after that.
+        let reader_guid: Arc<std::sync::OnceLock<[u8; 16]>> = Arc::new(std::sync::OnceLock::new());
+        let own_reader = Arc::clone(&reader_guid);
         let pending = Arc::new(Mutex::new(Pending::default()));
         let p = Arc::clone(&pending);
         let filter = Box::new(move |mut s: crate::ReceivedSample| {
             let related = s.related_identity?;
-            if related.writer_guid != own {
+            if related.writer_guid != own && own_reader.get() != Some(&related.writer_guid) {
                 return None; // a reply to another requester on the same topic
             }
             let id = lock_pending(&p).map.remove(&related.sequence_number)?;
@@ -88,6 +94,8 @@ impl Requester {
         });
         let reply_qos = EndpointQos { reliability: crate::Reliability::Reliable, ..qos.clone() };
         let reader = participant.create_reader_filtered(&rep_topic, &reply_qos, Some(filter))?;
+        // Cannot fail: set only here.
+        let _ = reader_guid.set(reader.guid());
         Ok(Self { writer, reader, pending })
     }
 

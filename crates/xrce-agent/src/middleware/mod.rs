@@ -313,9 +313,23 @@ impl MiddlewareKind {
         profiles: Arc<dyn ProfileSource>,
         ros_graph: ros_graph::RosGraphMode,
     ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+        self.build_with_engine(profiles, ros_graph, None)
+    }
+
+    /// As [`Self::build_with`], with the DDS engine (`None`: `XRCE_DDS_ENGINE`, else rustdds).
+    pub fn build_with_engine(
+        self,
+        profiles: Arc<dyn ProfileSource>,
+        ros_graph: ros_graph::RosGraphMode,
+        engine: Option<xrce_dds::Engine>,
+    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
-            Self::Dds | Self::Rtps => Ok(Box::new(dds::Dds::new(profiles).with_ros_graph(ros_graph))),
+            Self::Dds | Self::Rtps => {
+                let config =
+                    xrce_dds::BridgeConfig { engine: engine.unwrap_or_default(), ..xrce_dds::BridgeConfig::default() };
+                Ok(Box::new(dds::Dds::with_config(profiles, config).with_ros_graph(ros_graph)))
+            }
         }
     }
 }

@@ -21,7 +21,10 @@ pub fn require_loopback_namespace() {
 /// A bridge bound to loopback.
 pub fn bridge() -> DdsBridge {
     require_loopback_namespace();
-    DdsBridge::new(BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), domain_override: None })
+    DdsBridge::new(BridgeConfig {
+        only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]),
+        ..BridgeConfig::default()
+    })
 }
 
 /// CDR body (no encapsulation) of `struct HelloWorld { unsigned long index; string message; }`.

@@ -1,0 +1,326 @@
+//! The public bridge types and the choice of DDS engine behind them.
+//!
+//! Two engines implement the same API: `rustdds` (pure Rust, `bridge.rs`) and, with the `fastdds` cargo
+//! feature, Fast DDS 2.9 through `xrce-fastdds-sys` (`fast.rs`). The choice is made at run time
+//! ([`BridgeConfig::engine`]), so one agent binary carries both and tests can switch with
+//! [`ENGINE_ENV`].
+//!
+//! Dispatch is a plain enum per type rather than a trait object: the API has constructors returning other
+//! API types (a participant makes topics, writers and readers that must be of the same engine), which a trait
+//! would have to express with associated types or downcasts; an enum keeps it exhaustive, allocation-free and
+//! lets each engine keep its own concrete types. Each engine's code stays in its own file; this one only
+//! forwards.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crate::bridge;
+#[cfg(feature = "fastdds")]
+use crate::fast;
+use crate::reader::Filter;
+use crate::{BridgeConfig, DdsError, EndpointQos, ParticipantKey, SampleIdentity, SampleQueue};
+
+/// Environment variable choosing the engine when the configuration does not: `rustdds` or `fastdds`.
+pub const ENGINE_ENV: &str = "XRCE_DDS_ENGINE";
+
+/// The DDS implementation behind the bridge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Engine {
+    /// Pure-Rust RustDDS 0.15.1.
+    RustDds,
+    /// Fast DDS 2.9 (needs the `fastdds` feature).
+    FastDds,
+}
+
+impl Engine {
+    /// The engine named by [`ENGINE_ENV`]; RustDDS when unset or unknown.
+    pub fn from_env() -> Self {
+        match std::env::var(ENGINE_ENV) {
+            Ok(v) => v.parse().unwrap_or_else(|e| {
+                tracing::warn!("{ENGINE_ENV}: {e}; using rustdds");
+                Engine::RustDds
+            }),
+            Err(_) => Engine::RustDds,
+        }
+    }
+
+    /// Whether this build carries the engine.
+    pub fn is_available(self) -> bool {
+        match self {
+            Engine::RustDds => true,
+            Engine::FastDds => cfg!(feature = "fastdds"),
+        }
+    }
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Self::from_env()
+    }
+}
+
+impl std::str::FromStr for Engine {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "rustdds" => Ok(Engine::RustDds),
+            "fastdds" => Ok(Engine::FastDds),
+            other => Err(format!("unknown DDS engine {other:?} (rustdds or fastdds)")),
+        }
+    }
+}
+
+impl std::fmt::Display for Engine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Engine::RustDds => "rustdds",
+            Engine::FastDds => "fastdds",
+        })
+    }
+}
+
+/// Creates and shares DDS participants. Cheap to keep for the agent's lifetime; participants live as long
+/// as some [`Participant`] handle (or an entity created from one) does.
+#[derive(Debug)]
+pub struct DdsBridge {
+    rust: bridge::DdsBridge,
+    #[cfg(feature = "fastdds")]
+    fast: fast::Bridge,
+}
+
+impl DdsBridge {
+    /// A bridge with no participant yet.
+    pub fn new(config: BridgeConfig) -> Self {
+        Self {
+            #[cfg(feature = "fastdds")]
+            fast: fast::Bridge::new(config.clone()),
+            rust: bridge::DdsBridge::new(config),
+        }
+    }
+
+    /// The engine serving this bridge's participants.
+    pub fn engine(&self) -> Engine {
+        self.rust.config().engine
+    }
+
+    /// The DDS domain for an XRCE domain id: 255 becomes the override (environment or config), anything
+    /// else must be a valid domain.
+    pub fn resolve_domain(&self, xrce_domain_id: i32) -> Result<u16, DdsError> {
+        self.rust.resolve_domain(xrce_domain_id)
+    }
+
+    /// The shared participant for `(domain, profile)`, created on first use. `xrce_domain_id` 255 means
+    /// the agent's domain.
+    pub fn participant(&self, xrce_domain_id: i32, profile: &str) -> Result<Participant, DdsError> {
+        match self.engine() {
+            Engine::RustDds => self.rust.participant(xrce_domain_id, profile).map(Participant::Rust),
+            #[cfg(feature = "fastdds")]
+            Engine::FastDds => {
+                let domain = self.resolve_domain(xrce_domain_id)?;
+                self.fast.participant(domain, profile).map(Participant::Fast)
+            }
+            #[cfg(not(feature = "fastdds"))]
+            Engine::FastDds => Err(DdsError::Create {
+                what: "participant",
+                reason: "this build has no Fast DDS engine (cargo feature `fastdds`)".to_owned(),
+            }),
+        }
+    }
+
+    /// DDS participants alive now.
+    pub fn participant_count(&self) -> usize {
+        #[cfg(feature = "fastdds")]
+        return self.rust.participant_count() + self.fast.participant_count();
+        #[cfg(not(feature = "fastdds"))]
+        self.rust.participant_count()
+    }
+}
+
+/// A handle on a shared DDS participant. Clone it freely: every XRCE participant of the same domain and
+/// profile holds one.
+#[derive(Clone, Debug)]
+pub enum Participant {
+    #[doc(hidden)]
+    Rust(bridge::Participant),
+    #[doc(hidden)]
+    #[cfg(feature = "fastdds")]
+    Fast(fast::Participant),
+}
+
+/// A raw topic: name, type name (a runtime string, never a Rust type) and key kind.
+#[derive(Clone, Debug)]
+pub enum RawTopic {
+    #[doc(hidden)]
+    Rust(bridge::RawTopic),
+    #[doc(hidden)]
+    #[cfg(feature = "fastdds")]
+    Fast(fast::RawTopic),
+}
+
+/// A raw datawriter: publishes XRCE payloads (CDR bodies) as DDS samples.
+#[derive(Debug)]
+pub enum RawWriter {
+    #[doc(hidden)]
+    Rust(Arc<bridge::RawWriter>),
+    #[doc(hidden)]
+    #[cfg(feature = "fastdds")]
+    Fast(Arc<fast::RawWriter>),
+}
+
+/// A raw datareader: its samples are delivered into [`RawReader::queue`].
+#[derive(Debug)]
+pub enum RawReader {
+    #[doc(hidden)]
+    Rust(bridge::RawReader),
+    #[doc(hidden)]
+    #[cfg(feature = "fastdds")]
+    Fast(fast::RawReader),
+}
+
+/// Forwards a call to whichever engine the value belongs to.
+macro_rules! each {
+    ($v:expr, $x:ident => $e:expr) => {
+        match $v {
+            Self::Rust($x) => $e,
+            #[cfg(feature = "fastdds")]
+            Self::Fast($x) => $e,
+        }
+    };
+}
+
+#[cfg(feature = "fastdds")]
+fn mixed() -> DdsError {
+    DdsError::Create { what: "endpoint", reason: "topic of another DDS engine".to_owned() }
+}
+
+impl Participant {
+    /// Domain and profile this participant serves.
+    pub fn key(&self) -> &ParticipantKey {
+        each!(self, p => p.key())
+    }
+
+    /// The DDS participant's GUID.
+    pub fn guid(&self) -> [u8; 16] {
+        each!(self, p => p.guid())
+    }
+
+    /// The participant's topic `name`, created on first use. A second request with another type name or
+    /// key kind fails: DDS allows one type per topic name in a participant.
+    pub fn topic(&self, name: &str, type_name: &str, keyed: bool) -> Result<RawTopic, DdsError> {
+        match self {
+            Self::Rust(p) => p.topic(name, type_name, keyed).map(RawTopic::Rust),
+            #[cfg(feature = "fastdds")]
+            Self::Fast(p) => p.topic(name, type_name, keyed).map(RawTopic::Fast),
+        }
+    }
+
+    /// The participant's topic `name` if some earlier [`Participant::topic`] created it (whatever its type).
+    pub fn find_topic(&self, name: &str) -> Option<RawTopic> {
+        match self {
+            Self::Rust(p) => p.find_topic(name).map(RawTopic::Rust),
+            #[cfg(feature = "fastdds")]
+            Self::Fast(p) => p.find_topic(name).map(RawTopic::Fast),
+        }
+    }
+
+    /// The datawriter on `topic` with `qos` shared by every caller asking for the same pair, created on first
+    /// use and deleted with the last handle (one DDS writer for thousands of XRCE datawriters).
+    pub fn shared_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<Arc<RawWriter>, DdsError> {
+        match (self, topic) {
+            (Self::Rust(p), RawTopic::Rust(t)) => p.shared_writer(t, qos),
+            #[cfg(feature = "fastdds")]
+            (Self::Fast(p), RawTopic::Fast(t)) => p.shared_writer(t, qos),
+            #[cfg(feature = "fastdds")]
+            _ => Err(mixed()),
+        }
+    }
+
+    /// A datawriter on `topic`, this caller's own.
+    pub fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {
+        match (self, topic) {
+            (Self::Rust(p), RawTopic::Rust(t)) => Ok(RawWriter::Rust(Arc::new(p.create_writer(t, qos)?))),
+            #[cfg(feature = "fastdds")]
+            (Self::Fast(p), RawTopic::Fast(t)) => Ok(RawWriter::Fast(Arc::new(p.create_writer(t, qos)?))),
+            #[cfg(feature = "fastdds")]
+            _ => Err(mixed()),
+        }
+    }
+
+    /// A datareader on `topic`; received samples appear in its [`SampleQueue`].
+    pub fn create_reader(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawReader, DdsError> {
+        self.create_reader_filtered(topic, qos, None)
+    }
+
+    pub(crate) fn create_reader_filtered(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+        filter: Option<Filter>,
+    ) -> Result<RawReader, DdsError> {
+        match (self, topic) {
+            (Self::Rust(p), RawTopic::Rust(t)) => p.create_reader_filtered(t, qos, filter).map(RawReader::Rust),
+            #[cfg(feature = "fastdds")]
+            (Self::Fast(p), RawTopic::Fast(t)) => p.create_reader_filtered(t, qos, filter).map(RawReader::Fast),
+            #[cfg(feature = "fastdds")]
+            _ => Err(mixed()),
+        }
+    }
+}
+
+impl RawTopic {
+    /// Topic name.
+    pub fn name(&self) -> String {
+        each!(self, t => t.name())
+    }
+
+    /// Type name.
+    pub fn type_name(&self) -> String {
+        each!(self, t => t.type_name())
+    }
+
+    /// Whether the topic is keyed.
+    pub fn is_keyed(&self) -> bool {
+        each!(self, t => t.is_keyed())
+    }
+}
+
+impl RawWriter {
+    /// Publishes one sample whose CDR body is `body` (the `00 01 00 00` header is added). Returns the
+    /// sample's identity. A reliable write blocks at most the QoS' `max_blocking_time` when the writer has no
+    /// room, then fails with [`DdsError::Resources`].
+    pub fn write(&self, body: &[u8]) -> Result<SampleIdentity, DdsError> {
+        each!(self, w => w.write(body))
+    }
+
+    /// As [`RawWriter::write`], with the related sample identity (replies) sent as inline QoS.
+    pub fn write_related(&self, body: &[u8], related: Option<SampleIdentity>) -> Result<SampleIdentity, DdsError> {
+        each!(self, w => w.write_related(body, related))
+    }
+
+    /// The writer's GUID (the `writer_guid` of every identity it returns).
+    pub fn guid(&self) -> [u8; 16] {
+        each!(self, w => w.guid())
+    }
+
+    /// Readers currently matched (discovered and QoS-compatible).
+    pub fn matched_readers(&self) -> usize {
+        each!(self, w => w.matched_readers())
+    }
+
+    /// Waits until every matched reliable reader acknowledged everything written; `Ok(false)` on timeout.
+    pub fn wait_for_acknowledgments(&self, max_wait: Duration) -> Result<bool, DdsError> {
+        each!(self, w => w.wait_for_acknowledgments(max_wait))
+    }
+}
+
+impl RawReader {
+    /// The queue the agent drains (or waits on).
+    pub fn queue(&self) -> &SampleQueue {
+        each!(self, r => r.queue())
+    }
+
+    /// The reader's GUID.
+    pub fn guid(&self) -> [u8; 16] {
+        each!(self, r => r.guid())
+    }
+}

@@ -1,0 +1,404 @@
+//! The Fast DDS engine (cargo feature `fastdds`): the bridge API over Fast DDS 2.9 through `xrce-fastdds-sys`.
+//!
+//! Why a second engine: RustDDS' reliable readers withhold samples from a newly matched Fast DDS writer until
+//! a HEARTBEAT arrives, and their first ACKNACK does not obtain one, so ROS 2 (rmw_fastrtps) first contact
+//! waits for Fast DDS' 3 s periodic HEARTBEAT. Fast DDS itself has no such stall and carries the related
+//! sample identity rmw_fastrtps services need.
+//!
+//! Same sharing as the RustDDS engine: one Fast DDS participant per (domain, profile), topics per name,
+//! writers shareable per (topic, QoS). Received samples are taken on Fast DDS' listener thread, straight into
+//! the reader's bounded [`SampleQueue`]; when the queue is full, taking stops (samples wait in Fast DDS'
+//! history, whose reliable flow control then holds the writer back) and the agent's draining resumes it.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock, PoisonError, Weak};
+use std::time::Duration;
+
+use xrce_fastdds_sys as sys;
+
+use crate::qos::{Durability, EndpointQos, History, Reliability};
+use crate::reader::{Filter, ReceivedSample, Resume};
+use crate::{BridgeConfig, DdsError, ParticipantKey, SampleIdentity, SampleQueue};
+
+/// Samples moved from Fast DDS to a queue per lock of the queue.
+const BATCH: usize = 256;
+
+/// Name every Fast DDS participant of the agent announces.
+const PARTICIPANT_NAME: &str = "xrce-rs";
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // A poisoned lock only means a panic elsewhere; the maps stay consistent (single inserts/removes).
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+fn create_err(what: &'static str) -> impl FnOnce(sys::Error) -> DdsError {
+    move |e| DdsError::Create { what, reason: e.to_string() }
+}
+
+/// Creates and shares Fast DDS participants.
+pub(crate) struct Bridge {
+    config: BridgeConfig,
+    participants: Mutex<HashMap<ParticipantKey, Weak<ParticipantInner>>>,
+}
+
+impl std::fmt::Debug for Bridge {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FastBridge").field("participants", &self.participant_count()).finish()
+    }
+}
+
+impl Bridge {
+    pub(crate) fn new(config: BridgeConfig) -> Self {
+        Self { config, participants: Mutex::new(HashMap::new()) }
+    }
+
+    pub(crate) fn participant(&self, domain_id: u16, profile: &str) -> Result<Participant, DdsError> {
+        let key = ParticipantKey { domain_id, profile: profile.to_owned() };
+        let mut map = lock(&self.participants);
+        if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
+            return Ok(Participant { inner });
+        }
+        map.retain(|_, w| w.strong_count() > 0);
+        let cfg = sys::ParticipantConfig {
+            domain: u32::from(domain_id),
+            name: PARTICIPANT_NAME.to_owned(),
+            whitelist: self.config.only_networks.iter().flatten().map(ToString::to_string).collect(),
+            // Fast DDS' default is 5 announcements 100 ms apart; a denser start lets peers that are already
+            // up discover us (and answer with their own SPDP) sooner.
+            announcements: (10, Duration::from_millis(50)),
+        };
+        let participant = sys::Participant::new(&cfg).map_err(create_err("participant"))?;
+        let inner = Arc::new(ParticipantInner {
+            topics: Mutex::new(HashMap::new()),
+            writers: Mutex::new(HashMap::new()),
+            participant,
+            key: key.clone(),
+        });
+        map.insert(key, Arc::downgrade(&inner));
+        tracing::info!(domain = domain_id, profile = %profile, "DDS participant created (Fast DDS)");
+        Ok(Participant { inner })
+    }
+
+    pub(crate) fn participant_count(&self) -> usize {
+        lock(&self.participants).values().filter(|w| w.strong_count() > 0).count()
+    }
+}
+
+struct TopicEntry {
+    topic: Arc<sys::Topic>,
+    type_name: String,
+    keyed: bool,
+}
+
+struct ParticipantInner {
+    topics: Mutex<HashMap<String, TopicEntry>>,
+    writers: Mutex<HashMap<(String, EndpointQos), Weak<crate::engine::RawWriter>>>,
+    participant: sys::Participant,
+    key: ParticipantKey,
+}
+
+/// A handle on a shared Fast DDS participant.
+#[derive(Clone)]
+pub struct Participant {
+    inner: Arc<ParticipantInner>,
+}
+
+impl std::fmt::Debug for Participant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FastParticipant").field("key", &self.inner.key).finish()
+    }
+}
+
+/// A topic of a Fast DDS participant.
+#[derive(Clone)]
+pub struct RawTopic {
+    topic: Arc<sys::Topic>,
+    name: String,
+    type_name: String,
+    keyed: bool,
+}
+
+impl std::fmt::Debug for RawTopic {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FastTopic")
+            .field("name", &self.name)
+            .field("type", &self.type_name)
+            .field("keyed", &self.keyed)
+            .finish()
+    }
+}
+
+impl RawTopic {
+    pub(crate) fn name(&self) -> String {
+        self.name.clone()
+    }
+    pub(crate) fn type_name(&self) -> String {
+        self.type_name.clone()
+    }
+    pub(crate) fn is_keyed(&self) -> bool {
+        self.keyed
+    }
+}
+
+/// The Fast DDS QoS of an endpoint. Writers keep the XRCE history and the bounded limits of
+/// [`EndpointQos::effective_limits`]; a reliable write waits at most `max_blocking_time` for room. Keyed raw
+/// readers are KEEP_ALL for the reason given in `raw.rs` (one local instance for all real instances), and so
+/// are reliable readers: while their queue is paused, samples wait in Fast DDS' history, and a KEEP_LAST one
+/// would overwrite them (measured: 975 of 5,000 lost behind a slow XRCE subscriber) where KEEP_ALL stops
+/// acknowledging and so holds the writer back.
+fn to_fast(qos: &EndpointQos, reader: bool, keyed: bool) -> sys::Qos {
+    let limits = qos.effective_limits();
+    let hold = reader && (keyed || qos.reliability == Reliability::Reliable);
+    let keep_last = match qos.history {
+        History::KeepLast(d) if !hold => Some(d.max(1)),
+        _ => None,
+    };
+    sys::Qos {
+        reliable: qos.reliability == Reliability::Reliable,
+        transient_local: qos.durability != Durability::Volatile,
+        keep_last,
+        limits: (limits.max_samples, limits.max_instances, limits.max_samples_per_instance),
+        max_blocking_time: qos.max_blocking_time,
+        ..sys::Qos::default()
+    }
+}
+
+fn identity(id: &sys::SampleIdentity) -> SampleIdentity {
+    SampleIdentity { writer_guid: id.writer.v, sequence_number: id.sn }
+}
+
+impl Participant {
+    pub(crate) fn key(&self) -> &ParticipantKey {
+        &self.inner.key
+    }
+
+    pub(crate) fn guid(&self) -> [u8; 16] {
+        self.inner.participant.guid().v
+    }
+
+    pub(crate) fn topic(&self, name: &str, type_name: &str, keyed: bool) -> Result<RawTopic, DdsError> {
+        let mut topics = lock(&self.inner.topics);
+        if let Some(e) = topics.get(name) {
+            if e.type_name != type_name || e.keyed != keyed {
+                return Err(DdsError::TopicMismatch {
+                    name: name.to_owned(),
+                    existing_type: e.type_name.clone(),
+                    existing_keyed: e.keyed,
+                });
+            }
+            return Ok(RawTopic {
+                topic: Arc::clone(&e.topic),
+                name: name.to_owned(),
+                type_name: type_name.to_owned(),
+                keyed,
+            });
+        }
+        let topic = Arc::new(self.inner.participant.topic(name, type_name, keyed).map_err(create_err("topic"))?);
+        topics
+            .insert(name.to_owned(), TopicEntry { topic: Arc::clone(&topic), type_name: type_name.to_owned(), keyed });
+        Ok(RawTopic { topic, name: name.to_owned(), type_name: type_name.to_owned(), keyed })
+    }
+
+    pub(crate) fn find_topic(&self, name: &str) -> Option<RawTopic> {
+        lock(&self.inner.topics).get(name).map(|e| RawTopic {
+            topic: Arc::clone(&e.topic),
+            name: name.to_owned(),
+            type_name: e.type_name.clone(),
+            keyed: e.keyed,
+        })
+    }
+
+    pub(crate) fn shared_writer(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+    ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
+        let key = (topic.name.clone(), qos.clone());
+        let mut map = lock(&self.inner.writers);
+        if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
+            return Ok(w);
+        }
+        // Dead entries are pruned whenever the map doubles: amortised O(1) per creation.
+        if map.len() >= 16 && map.len().is_power_of_two() {
+            map.retain(|_, w| w.strong_count() > 0);
+        }
+        let w = Arc::new(crate::engine::RawWriter::Fast(Arc::new(self.create_writer(topic, qos)?)));
+        map.insert(key, Arc::downgrade(&w));
+        Ok(w)
+    }
+
+    pub(crate) fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {
+        let writer = self
+            .inner
+            .participant
+            .writer(&topic.topic, &to_fast(qos, false, topic.keyed))
+            .map_err(create_err("datawriter"))?;
+        Ok(RawWriter { writer, _topic: Arc::clone(&topic.topic), _participant: Arc::clone(&self.inner) })
+    }
+
+    pub(crate) fn create_reader_filtered(
+        &self,
+        topic: &RawTopic,
+        qos: &EndpointQos,
+        filter: Option<Filter>,
+    ) -> Result<RawReader, DdsError> {
+        // The data callback is installed with the reader, before its handle exists: it finds the source
+        // through this cell, which is filled right after creation (no sample can match before that).
+        let cell: Arc<OnceLock<Weak<Source>>> = Arc::new(OnceLock::new());
+        let on_data = {
+            let cell = Arc::clone(&cell);
+            move || {
+                if let Some(src) = cell.get().and_then(Weak::upgrade) {
+                    src.drain();
+                }
+            }
+        };
+        let reader = self
+            .inner
+            .participant
+            .reader(&topic.topic, &to_fast(qos, true, topic.keyed), on_data)
+            .map_err(create_err("datareader"))?;
+        let resume_cell = Arc::clone(&cell);
+        let resume: Resume = Arc::new(move || {
+            if let Some(src) = resume_cell.get().and_then(Weak::upgrade) {
+                src.drain();
+            }
+        });
+        let queue = SampleQueue::new_detached(qos.queue_capacity(), resume);
+        let source = Arc::new(Source { handle: reader.handle(), queue: queue.clone(), filter: Mutex::new(filter) });
+        // Cannot fail: the cell was created above and is set only here.
+        let _ = cell.set(Arc::downgrade(&source));
+        // Samples may have arrived before the cell was set.
+        source.drain();
+        let guid = reader.guid().v;
+        Ok(RawReader {
+            queue,
+            guid,
+            _source: source,
+            _reader: reader,
+            _topic: Arc::clone(&topic.topic),
+            _participant: Arc::clone(&self.inner),
+        })
+    }
+}
+
+/// A Fast DDS writer of raw samples.
+pub struct RawWriter {
+    writer: sys::Writer,
+    // Drop order: the writer goes before its topic and participant.
+    _topic: Arc<sys::Topic>,
+    _participant: Arc<ParticipantInner>,
+}
+
+impl std::fmt::Debug for RawWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FastWriter").field("guid", &self.guid()).finish()
+    }
+}
+
+impl RawWriter {
+    pub(crate) fn write(&self, body: &[u8]) -> Result<SampleIdentity, DdsError> {
+        self.write_related(body, None)
+    }
+
+    pub(crate) fn write_related(
+        &self,
+        body: &[u8],
+        related: Option<SampleIdentity>,
+    ) -> Result<SampleIdentity, DdsError> {
+        let rel =
+            related.map(|r| sys::SampleIdentity { writer: sys::Guid { v: r.writer_guid }, sn: r.sequence_number });
+        match self.writer.write(body, rel.as_ref()) {
+            Ok(id) => Ok(identity(&id)),
+            Err(sys::Error::WouldBlock) => Err(DdsError::Resources("reliable writer history full".to_owned())),
+            Err(e) => Err(DdsError::Write(e.to_string())),
+        }
+    }
+
+    pub(crate) fn guid(&self) -> [u8; 16] {
+        self.writer.guid().v
+    }
+
+    pub(crate) fn matched_readers(&self) -> usize {
+        usize::try_from(self.writer.matched()).unwrap_or(0)
+    }
+
+    pub(crate) fn wait_for_acknowledgments(&self, max_wait: Duration) -> Result<bool, DdsError> {
+        Ok(self.writer.wait_for_acknowledgments(max_wait))
+    }
+}
+
+/// Moves samples from Fast DDS into a reader's queue, from the listener thread or from the agent (resume).
+struct Source {
+    handle: sys::ReaderHandle,
+    queue: SampleQueue,
+    /// Also serializes drains, so samples enter the queue in the order Fast DDS gives them.
+    filter: Mutex<Option<Filter>>,
+}
+
+impl Source {
+    fn drain(&self) {
+        let mut filter = lock(&self.filter);
+        let mut batch = Vec::new();
+        loop {
+            let room = self.queue.room_or_pause();
+            if room == 0 {
+                return;
+            }
+            let want = room.min(BATCH);
+            while batch.len() < want {
+                match self.handle.take() {
+                    Ok(Some(s)) if s.valid => batch.push(ReceivedSample {
+                        data: s.body,
+                        encapsulation: s.encapsulation.to_be_bytes(),
+                        identity: identity(&s.identity),
+                        related_identity: (s.related.sn >= 0 || s.related.writer.v != [0; 16])
+                            .then(|| identity(&s.related)),
+                        request_id: None,
+                    }),
+                    // Dispose/unregister notifications carry no data for an XRCE client.
+                    Ok(Some(_)) => {}
+                    Ok(None) => break,
+                    Err(e) => {
+                        tracing::warn!("taking from Fast DDS reader: {e}");
+                        break;
+                    }
+                }
+            }
+            if batch.is_empty() {
+                return;
+            }
+            let took = batch.len();
+            self.queue.deliver(&mut batch, &mut filter);
+            if took < want {
+                return;
+            }
+        }
+    }
+}
+
+/// A Fast DDS reader whose samples land in [`RawReader::queue`].
+pub struct RawReader {
+    queue: SampleQueue,
+    guid: [u8; 16],
+    _source: Arc<Source>,
+    // Drop order: the reader (and its callback) goes before its topic and participant.
+    _reader: sys::Reader,
+    _topic: Arc<sys::Topic>,
+    _participant: Arc<ParticipantInner>,
+}
+
+impl std::fmt::Debug for RawReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FastReader").field("guid", &self.guid).field("queue", &self.queue).finish()
+    }
+}
+
+impl RawReader {
+    pub(crate) fn queue(&self) -> &SampleQueue {
+        &self.queue
+    }
+    pub(crate) fn guid(&self) -> [u8; 16] {
+        self.guid
+    }
+}
