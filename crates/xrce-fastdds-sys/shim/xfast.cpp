@@ -179,6 +179,8 @@ struct xf_reader { DataReader* r; Subscriber* sub; CbListener listener; RawData 
 
 extern "C" {
 
+int xf_available() { return 1; }
+
 xf_participant* xf_participant_new(const xf_participant_cfg* c) {
     XF_TRY
     DomainParticipantQos q = PARTICIPANT_QOS_DEFAULT;

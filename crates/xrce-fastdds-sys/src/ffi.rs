@@ -64,6 +64,8 @@ pub(crate) enum XfTopic {}
 pub(crate) type Cb = extern "C" fn(*mut c_void);
 
 extern "C" {
+    /// 1 with Fast DDS, 0 in the stub built without it (build.rs).
+    pub(crate) fn xf_available() -> c_int;
     pub(crate) fn xf_participant_new(cfg: *const ParticipantCfg) -> *mut XfParticipant;
     pub(crate) fn xf_participant_delete(p: *mut XfParticipant);
     pub(crate) fn xf_participant_guid(p: *const XfParticipant, out: *mut Guid);

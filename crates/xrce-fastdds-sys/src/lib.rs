@@ -30,6 +30,8 @@ pub enum Error {
     WouldBlock,
     /// Another failure of the named operation (shim return code).
     Op(&'static str, i32),
+    /// This build has no Fast DDS (its headers were missing when it was compiled).
+    Unavailable,
 }
 
 impl std::fmt::Display for Error {
@@ -39,6 +41,9 @@ impl std::fmt::Display for Error {
             Error::Create(what) => write!(f, "Fast DDS cannot create the {what}"),
             Error::WouldBlock => f.write_str("writer history full"),
             Error::Op(what, rc) => write!(f, "Fast DDS {what} failed ({rc})"),
+            Error::Unavailable => f.write_str(
+                "this build has no Fast DDS engine: install libfastrtps-dev and g++, then rebuild with --features fastdds",
+            ),
         }
     }
 }
@@ -181,9 +186,18 @@ impl Drop for Topic {
     }
 }
 
+/// Whether this build links Fast DDS (false when it was compiled without Fast DDS' headers).
+pub fn available() -> bool {
+    // SAFETY: takes nothing, returns a constant.
+    unsafe { ffi::xf_available() != 0 }
+}
+
 impl Participant {
     /// Creates a participant (UDPv4 only, no SHM, no data sharing).
     pub fn new(cfg: &ParticipantConfig) -> Result<Self, Error> {
+        if !available() {
+            return Err(Error::Unavailable);
+        }
         let name = cstr(&cfg.name)?;
         let wl = cstrs(&cfg.whitelist)?;
         let raw = ffi::ParticipantCfg {
