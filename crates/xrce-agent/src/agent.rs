@@ -129,8 +129,19 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         config: CoreConfig,
         ros_graph: RosGraphMode,
     ) -> Result<Self, UnsupportedMiddleware> {
+        Self::with_dds_options(kind, config, ros_graph, false)
+    }
+
+    /// As [`Agent::with_ros_graph`]; with `eager_participant` the DDS middleware creates the default domain's
+    /// DDS participant now (`--eager-participant`).
+    pub fn with_dds_options(
+        kind: MiddlewareKind,
+        config: CoreConfig,
+        ros_graph: RosGraphMode,
+        eager_participant: bool,
+    ) -> Result<Self, UnsupportedMiddleware> {
         let profiles = Arc::new(StoreProfiles::new());
-        let middleware = kind.build_with(profiles.clone(), ros_graph)?;
+        let middleware = kind.build_eager(profiles.clone(), ros_graph, eager_participant)?;
         let callbacks = CallbackRegistry::default();
         let wrapped: DynMiddleware = Box::new(WithCallbacks::with_registry(middleware, callbacks.clone()));
         let core = Arc::new(Mutex::new(AgentCore::new(config, wrapped)));
@@ -297,10 +308,11 @@ impl AgentInstance {
         }
         let (agent, server, local_addr) = match config.transport {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
-                let agent = Agent::<SocketAddr>::with_ros_graph(
+                let agent = Agent::<SocketAddr>::with_dds_options(
                     kind,
                     CoreConfig { info_port: port, ..CoreConfig::default() },
                     graph,
+                    config.eager_participant,
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
@@ -312,10 +324,11 @@ impl AgentInstance {
                 (AgentHandle::Udp(agent), handle, Some(local))
             }
             Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
-                let agent = Agent::<ConnId>::with_ros_graph(
+                let agent = Agent::<ConnId>::with_dds_options(
                     kind,
                     CoreConfig { info_port: port, ..CoreConfig::default() },
                     graph,
+                    config.eager_participant,
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
@@ -428,7 +441,12 @@ fn start_serial(
     lines: Vec<crate::transport::serial::Line>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    let agent = Agent::with_ros_graph(kind, CoreConfig::default(), to_graph_mode(config.ros_graph))?;
+    let agent = Agent::with_dds_options(
+        kind,
+        CoreConfig::default(),
+        to_graph_mode(config.ros_graph),
+        config.eager_participant,
+    )?;
     load_refs(config, &agent.profiles)?;
     let server = crate::transport::serial::SerialServer::new(lines, agent.core());
     tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");

@@ -64,6 +64,9 @@ pub struct Config {
     pub p2p: Option<u16>,
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
+    /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
+    /// ours): discovery with running DDS applications is done before the first client arrives.
+    pub eager_participant: bool,
 }
 
 impl Config {
@@ -174,6 +177,16 @@ pub enum RosGraph {
     Off,
 }
 
+/// `on` or `off`, for our long options.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, ValueEnum)]
+pub enum OnOff {
+    /// Enabled.
+    #[default]
+    On,
+    /// Disabled.
+    Off,
+}
+
 /// Middleware selected with `-m/--middleware`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, ValueEnum)]
 pub enum MiddlewareKind {
@@ -209,6 +222,8 @@ Arguments per transport (place them after the transport):
       -P/--p2p <PORT>                 P2P discovery of other agents (CED middleware)
       --ros-graph <on|humble|off>     ROS 2 nodes for named XRCE participants (dds middleware; ours)
                                       [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
+      --eager-participant <on|off>    create the default DDS participant at start, before any client
+                                      (dds middleware; ours) [default: on]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)
@@ -292,6 +307,11 @@ struct CommonArgs {
     /// later; humble: 24-byte GIDs; off: nothing published on ros_discovery_info).
     #[arg(long, value_enum, value_name = "MODE", default_value_t = RosGraph::On)]
     ros_graph: RosGraph,
+
+    /// DDS middleware: create the default domain's DDS participant at start, so discovery with running
+    /// DDS applications (ROS 2 nodes) is done before the first client arrives (off: on first use).
+    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
+    eager_participant: OnOff,
 }
 
 #[derive(Debug, Args)]
@@ -435,6 +455,7 @@ impl Cli {
             discovery: common.discovery,
             p2p: common.p2p,
             ros_graph: common.ros_graph,
+            eager_participant: common.eager_participant == OnOff::On,
         })
     }
 }
@@ -547,6 +568,7 @@ mod tests {
                 discovery: None,
                 p2p: None,
                 ros_graph: RosGraph::On,
+                eager_participant: true,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -591,6 +613,9 @@ mod tests {
         assert_eq!(ok("udp4 -p 1 --ros-graph humble").ros_graph, RosGraph::Humble);
         assert_eq!(ok("serial -D /dev/null --ros-graph off").ros_graph, RosGraph::Off);
         assert!(parse("udp4 -p 1 --ros-graph iron").is_err());
+        assert!(ok("udp4 -p 1").eager_participant);
+        assert!(!ok("udp4 -p 1 --eager-participant off").eager_participant);
+        assert!(parse("udp4 -p 1 --eager-participant maybe").is_err());
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
         assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);

@@ -210,8 +210,9 @@ pub trait Middleware {
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
 
-    /// Back-pressure for reliable writers: whether `writer` may publish now without making the middleware
-    /// drop a sample that a reliable reader has not taken yet. When false the core leaves the client's
+    /// Back-pressure for reliable writers: whether `writer` (a datawriter or a requester) may publish now
+    /// without making the middleware drop a sample that a reliable reader has not taken yet, or that a
+    /// reader it is about to match would miss (DDS: the first-contact gate of a new writer). When false the core leaves the client's
     /// reliable message unprocessed (held in its input window, unacknowledged) and retries after deliveries,
     /// so the client's own history fills and its writes block. Default: always.
     fn can_write(&mut self, _writer: EntityRef) -> bool {
@@ -316,6 +317,22 @@ impl MiddlewareKind {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
             Self::Dds | Self::Rtps => Ok(Box::new(dds::Dds::new(profiles).with_ros_graph(ros_graph))),
+        }
+    }
+
+    /// As [`Self::build_with`]; with `eager_participant` the DDS middleware creates the default domain's DDS
+    /// participant now ([`dds::Dds::with_eager_participant`]; ignored by CED).
+    pub fn build_eager(
+        self,
+        profiles: Arc<dyn ProfileSource>,
+        ros_graph: ros_graph::RosGraphMode,
+        eager_participant: bool,
+    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+        match self {
+            Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
+            Self::Dds | Self::Rtps => Ok(Box::new(
+                dds::Dds::new(profiles).with_ros_graph(ros_graph).with_eager_participant(eager_participant),
+            )),
         }
     }
 }
