@@ -551,7 +551,9 @@ impl Dds {
                 "first-contact gate timed out; writing before every known reader matched"
             );
         } else {
-            tracing::debug!(?entity, "first-contact gate open: every known reader matched");
+            // How long the writes were held: 0 when the writer had matched every known reader already.
+            let waited_ms = (now + FIRST_CONTACT_GATE).saturating_duration_since(deadline).as_secs_f64() * 1e3;
+            tracing::debug!(?entity, waited_ms, "first-contact gate open: every known reader matched");
         }
         self.gates.remove(&entity);
         if self.gates.is_empty() {
