@@ -25,7 +25,7 @@ use crate::core::{AgentCore, CoreConfig};
 use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
 use crate::middleware::profiles::StoreProfiles;
 use crate::middleware::ros_graph::RosGraphMode;
-use crate::middleware::{MiddlewareKind, UnsupportedMiddleware};
+use crate::middleware::{DdsOptions, MiddlewareKind, UnsupportedMiddleware};
 use crate::transport::tcp::{ConnId, TcpServer};
 use crate::transport::udp::UdpServer;
 use crate::transport::{lock, DynMiddleware, SharedCore};
@@ -129,18 +129,18 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         config: CoreConfig,
         ros_graph: RosGraphMode,
     ) -> Result<Self, UnsupportedMiddleware> {
-        Self::with_dds(kind, config, ros_graph, None)
+        Self::with_dds(kind, config, ros_graph, DdsOptions::default())
     }
 
-    /// As [`Agent::with_ros_graph`], with the DDS engine (`--dds-engine`; `None`: `XRCE_DDS_ENGINE`).
+    /// As [`Agent::with_ros_graph`], with the DDS middleware's options (`--dds-engine`, `--eager-participant`).
     pub fn with_dds(
         kind: MiddlewareKind,
         config: CoreConfig,
         ros_graph: RosGraphMode,
-        engine: Option<xrce_dds::Engine>,
+        options: DdsOptions,
     ) -> Result<Self, UnsupportedMiddleware> {
         let profiles = Arc::new(StoreProfiles::new());
-        let middleware = kind.build_with_engine(profiles.clone(), ros_graph, engine)?;
+        let middleware = kind.build_dds(profiles.clone(), ros_graph, options)?;
         let callbacks = CallbackRegistry::default();
         let wrapped: DynMiddleware = Box::new(WithCallbacks::with_registry(middleware, callbacks.clone()));
         let core = Arc::new(Mutex::new(AgentCore::new(config, wrapped)));
@@ -301,7 +301,7 @@ impl AgentInstance {
     pub fn from_config(config: Config) -> Result<Self, AgentError> {
         let kind = to_cli_kind(config.middleware);
         let graph = to_graph_mode(config.ros_graph);
-        let engine = config.dds_engine.map(xrce_dds::Engine::from);
+        let dds = dds_options(&config);
         let stop = Arc::new(AtomicBool::new(false));
         if config.p2p.is_some() {
             tracing::warn!("-P/--p2p is not implemented yet; ignored");
@@ -312,7 +312,7 @@ impl AgentInstance {
                     kind,
                     CoreConfig { info_port: port, ..CoreConfig::default() },
                     graph,
-                    engine,
+                    dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
@@ -328,7 +328,7 @@ impl AgentInstance {
                     kind,
                     CoreConfig { info_port: port, ..CoreConfig::default() },
                     graph,
-                    engine,
+                    dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
@@ -433,6 +433,11 @@ impl Drop for AgentInstance {
 #[cfg(target_os = "linux")]
 type Started = (AgentHandle, JoinHandle<std::io::Result<()>>, Option<SocketAddr>);
 
+/// The DDS middleware's options from the command line.
+fn dds_options(config: &Config) -> DdsOptions {
+    DdsOptions { engine: config.dds_engine.map(xrce_dds::Engine::from), eager_participant: config.eager_participant }
+}
+
 /// Starts a serial server on `lines`.
 #[cfg(target_os = "linux")]
 fn start_serial(
@@ -441,8 +446,7 @@ fn start_serial(
     lines: Vec<crate::transport::serial::Line>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    let engine = config.dds_engine.map(xrce_dds::Engine::from);
-    let agent = Agent::with_dds(kind, CoreConfig::default(), to_graph_mode(config.ros_graph), engine)?;
+    let agent = Agent::with_dds(kind, CoreConfig::default(), to_graph_mode(config.ros_graph), dds_options(config))?;
     load_refs(config, &agent.profiles)?;
     let server = crate::transport::serial::SerialServer::new(lines, agent.core());
     tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");

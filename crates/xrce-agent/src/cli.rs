@@ -64,6 +64,9 @@ pub struct Config {
     pub p2p: Option<u16>,
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
+    /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
+    /// ours): discovery with running DDS applications is done before the first client arrives.
+    pub eager_participant: bool,
     /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE` or rustdds.
     pub dds_engine: Option<DdsEngine>,
 }
@@ -194,6 +197,16 @@ pub enum RosGraph {
     Off,
 }
 
+/// `on` or `off`, for our long options.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, ValueEnum)]
+pub enum OnOff {
+    /// Enabled.
+    #[default]
+    On,
+    /// Disabled.
+    Off,
+}
+
 /// Middleware selected with `-m/--middleware`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, ValueEnum)]
 pub enum MiddlewareKind {
@@ -231,6 +244,8 @@ Arguments per transport (place them after the transport):
                                       [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
       --dds-engine <rustdds|fastdds>  DDS implementation of the dds middleware (ours)
                                       [default: $XRCE_DDS_ENGINE or rustdds; fastdds needs the feature]
+      --eager-participant <on|off>    create the default DDS participant at start, before any client
+                                      (dds middleware; ours) [default: on]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)
@@ -318,6 +333,10 @@ struct CommonArgs {
     /// DDS implementation behind the dds middleware (default: $XRCE_DDS_ENGINE, else rustdds).
     #[arg(long, value_enum, value_name = "ENGINE")]
     dds_engine: Option<DdsEngine>,
+    /// DDS middleware: create the default domain's DDS participant at start, so discovery with running
+    /// DDS applications (ROS 2 nodes) is done before the first client arrives (off: on first use).
+    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
+    eager_participant: OnOff,
 }
 
 #[derive(Debug, Args)]
@@ -462,6 +481,7 @@ impl Cli {
             p2p: common.p2p,
             ros_graph: common.ros_graph,
             dds_engine: common.dds_engine,
+            eager_participant: common.eager_participant == OnOff::On,
         })
     }
 }
@@ -575,6 +595,7 @@ mod tests {
                 p2p: None,
                 ros_graph: RosGraph::On,
                 dds_engine: None,
+                eager_participant: true,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -621,6 +642,9 @@ mod tests {
         assert!(parse("udp4 -p 1 --ros-graph iron").is_err());
         assert_eq!(ok("udp4 -p 1 --dds-engine fastdds").dds_engine, Some(DdsEngine::Fastdds));
         assert!(parse("udp4 -p 1 --dds-engine cyclone").is_err());
+        assert!(ok("udp4 -p 1").eager_participant);
+        assert!(!ok("udp4 -p 1 --eager-participant off").eager_participant);
+        assert!(parse("udp4 -p 1 --eager-participant maybe").is_err());
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
         assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);

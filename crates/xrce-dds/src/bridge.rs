@@ -6,7 +6,7 @@
 //! datawriter fit in one RustDDS participant (issue 5 item 6). Writers can be shared the same way
 //! ([`Participant::shared_writer`]): one DDS writer per topic and QoS, however many XRCE datawriters use it.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::net::IpAddr;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
@@ -290,6 +290,7 @@ impl Participant {
     /// A datawriter on `topic`, this caller's own.
     pub fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {
         let q = qos.to_rustdds(false);
+        let qos_policies = q.clone();
         let kind = if topic.keyed {
             WriterKind::Keyed(
                 self.inner
@@ -305,7 +306,14 @@ impl Participant {
                     .map_err(create_err("datawriter"))?,
             )
         };
-        Ok(RawWriter { kind, matched: AtomicUsize::new(0), _participant: Arc::clone(&self.inner) })
+        Ok(RawWriter {
+            kind,
+            matched: AtomicUsize::new(0),
+            matched_guids: Mutex::new(HashSet::new()),
+            topic_name: topic.name(),
+            qos: qos_policies,
+            participant: Arc::clone(&self.inner),
+        })
     }
 
     /// A datareader on `topic`; received samples appear in its [`SampleQueue`].
@@ -351,8 +359,15 @@ pub struct RawWriter {
     kind: WriterKind,
     /// Last known matched reader count (status events are consumed when read).
     matched: AtomicUsize,
-    // Keeps the shared participant alive as long as one of its writers is.
-    _participant: Arc<ParticipantInner>,
+    /// GUIDs of the readers matched now, from the same status events (see
+    /// [`RawWriter::unmatched_known_readers`]).
+    matched_guids: Mutex<HashSet<[u8; 16]>>,
+    /// Topic name and the writer's QoS, to tell which discovered readers it should match.
+    topic_name: String,
+    qos: rustdds::QosPolicies,
+    // Keeps the shared participant alive as long as one of its writers is; its discovery database answers
+    // `unmatched_known_readers`.
+    participant: Arc<ParticipantInner>,
 }
 
 impl std::fmt::Debug for RawWriter {
@@ -398,15 +413,51 @@ impl RawWriter {
     /// Readers currently matched (discovered and QoS-compatible), from the writer's PUBLICATION_MATCHED
     /// status events (RustDDS' `get_matched_subscriptions` is a panicking placeholder in 0.15.1).
     pub fn matched_readers(&self) -> usize {
+        self.drain_status();
+        self.matched.load(Ordering::Relaxed)
+    }
+
+    /// Remote readers the participant has already discovered on this writer's topic, with a QoS this
+    /// writer can serve, that the writer has not matched yet (0 once it reaches every reader known now).
+    ///
+    /// Why: a new writer matches the readers its participant knows only after the engine processed it,
+    /// tens of milliseconds later; a sample written meanwhile is not owed to them (volatile writers start
+    /// each new reader after their history), so the remote side, which may have matched the writer first,
+    /// sees it skipped. Holding the first writes until this is 0 (bounded by the caller) closes that gap.
+    /// Readers not discovered yet cannot be waited for: they are the ordinary late joiners.
+    pub fn unmatched_known_readers(&self) -> usize {
+        self.drain_status();
+        let matched = lock(&self.matched_guids);
+        self.participant
+            .participant
+            .discovered_readers()
+            .iter()
+            .filter(|d| d.subscription_topic_data.topic_name == self.topic_name)
+            .filter(|d| !matched.contains(&d.reader_proxy.remote_reader_guid.to_bytes()))
+            .filter(|d| self.qos.compliance_failure_wrt(&d.subscription_topic_data.qos()).is_none())
+            .count()
+    }
+
+    /// Consumes the writer's status events: matched count and matched reader GUIDs.
+    fn drain_status(&self) {
         use rustdds::{DataWriterStatus, StatusEvented};
         let mut last = None;
+        let mut guids: Option<MutexGuard<'_, HashSet<[u8; 16]>>> = None;
         loop {
             let st = match &self.kind {
                 WriterKind::NoKey(w) => w.try_recv_status(),
                 WriterKind::Keyed(w) => w.try_recv_status(),
             };
             match st {
-                Some(DataWriterStatus::PublicationMatched { current, .. }) => last = Some(current.count()),
+                Some(DataWriterStatus::PublicationMatched { current, reader, .. }) => {
+                    last = Some(current.count());
+                    let set = guids.get_or_insert_with(|| lock(&self.matched_guids));
+                    if current.count_change() < 0 {
+                        set.remove(&reader.to_bytes());
+                    } else {
+                        set.insert(reader.to_bytes());
+                    }
+                }
                 Some(_) => {}
                 None => break,
             }
@@ -414,7 +465,6 @@ impl RawWriter {
         if let Some(c) = last {
             self.matched.store(usize::try_from(c).unwrap_or(0), Ordering::Relaxed);
         }
-        self.matched.load(Ordering::Relaxed)
     }
 
     /// Waits until every matched reliable reader acknowledged everything written; `Ok(false)` on timeout.

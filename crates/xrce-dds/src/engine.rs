@@ -311,6 +311,18 @@ impl RawWriter {
     pub fn wait_for_acknowledgments(&self, max_wait: Duration) -> Result<bool, DdsError> {
         each!(self, w => w.wait_for_acknowledgments(max_wait))
     }
+
+    /// Remote readers of this writer's topic that the participant has discovered (QoS-compatible) and the
+    /// writer has not matched yet; the agent holds a fresh writer's first samples while this is not 0
+    /// (bounded), so that a volatile writer does not skip them for a reader it is about to match. Fast DDS
+    /// matches the readers its participant knows while it creates the writer, so there it is always 0.
+    pub fn unmatched_known_readers(&self) -> usize {
+        match self {
+            Self::Rust(w) => w.unmatched_known_readers(),
+            #[cfg(feature = "fastdds")]
+            Self::Fast(_) => 0,
+        }
+    }
 }
 
 impl RawReader {

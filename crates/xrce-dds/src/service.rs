@@ -132,6 +132,12 @@ impl Requester {
     pub fn matched_repliers(&self) -> usize {
         self.writer.matched_readers()
     }
+
+    /// Repliers (request readers) already discovered that the request writer has not matched yet; see
+    /// [`RawWriter::unmatched_known_readers`].
+    pub fn unmatched_known_repliers(&self) -> usize {
+        self.writer.unmatched_known_readers()
+    }
 }
 
 /// A replier: receives requests with their identity, writes replies related to them.

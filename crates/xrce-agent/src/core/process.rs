@@ -214,7 +214,8 @@ where
             };
             let Some(&[a, b]) = object else { continue };
             let id = ObjectId([a, b]);
-            if id.kind() != ObjectKind::DataWriter || writers.contains(&Some(id)) {
+            // Requesters too: their request writer has a first-contact gate like a datawriter's.
+            if !matches!(id.kind(), ObjectKind::DataWriter | ObjectKind::Requester) || writers.contains(&Some(id)) {
                 continue;
             }
             if let Some(slot) = writers.get_mut(n) {

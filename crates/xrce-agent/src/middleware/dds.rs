@@ -51,16 +51,31 @@
 //!   core then holds the publisher's reliable stream, whose history fills, and its writes block. Not
 //!   covered: remote DDS readers (RustDDS blocks the write on its own send window, [`WRITE_RETRIES`]) and
 //!   remote DDS writers to a stalled XRCE reader (RustDDS has acknowledged those samples already).
+//! * **First contact** (issue 11). A new DDS writer reaches the readers its participant already knows only
+//!   once the engine has matched them, some 20–35 ms after its creation; a volatile writer does not owe a
+//!   reader the samples written before it matched it, so the first samples of a client writing right
+//!   after STATUS OK were lost at readers (a ROS node) that had matched the writer first. Each new
+//!   datawriter and requester is therefore *gated*: [`Middleware::can_write`] is false while its DDS writer
+//!   has not matched every remote reader of its topic that the participant has discovered with a
+//!   compatible QoS, for [`FIRST_CONTACT_GATE`] at most; the core keeps the client's reliable message and
+//!   retries it when a small timer thread wakes it ([`GATE_RECHECK`], only while a write is held). Readers
+//!   not discovered yet are the ordinary late joiners and are not waited for. Whether the *remote* reader
+//!   has matched our writer is not observable (an unmatched reader sends nothing) and need not be: once
+//!   our reliable writer has matched it, the sample is kept for it until it acknowledges, so a reader that
+//!   matches later still gets it from the writer's heartbeats. With `eager_participant` (the CLI default)
+//!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
+//!   running are known before the first client arrives.
 //! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
 //!   keeps a 64-bit digest of it (std's `DefaultHasher`, fixed keys), not the description itself, to stay small.
 
 use std::collections::{HashMap, HashSet, VecDeque};
-use std::sync::Arc;
-use std::time::Instant;
+use std::sync::{Arc, Condvar, Mutex, PoisonError};
+use std::time::{Duration, Instant};
 
 use xrce_dds::{
     BridgeConfig, DdsBridge, DdsError, Durability, EndpointQos as DdsQos, History, Participant, RawReader, RawTopic,
     RawWriter, ReceivedSample, Reliability, Replier, Requester, ResourceLimits, SampleQueue, ServiceDescription,
+    AGENT_DOMAIN,
 };
 use xrce_proto::object::{BinaryObject, EndpointQos as BinaryQos, QosFlags, Representation};
 use xrce_proto::types::{Guid, SequenceNumber};
@@ -90,6 +105,19 @@ pub const IN_FLIGHT_STALL: std::time::Duration = std::time::Duration::from_milli
 
 /// Samples moved at once from a reader's bridge queue to the middleware's local buffer.
 pub const TAKE_BATCH: usize = 64;
+
+/// Longest a new datawriter or requester holds its first writes until its DDS writer has matched the
+/// remote readers already discovered on its topic (see the module documentation). Matching a known reader
+/// takes RustDDS 20–35 ms (measured with a ROS 2 node); 300 ms is ten times that, so it only runs out when
+/// a known reader will never match (an incompatibility our check does not see, a reader gone meanwhile,
+/// a status event the engine dropped), and it stays well below the 1 s micro-ROS waits by default for a
+/// reliable publish to be confirmed, so a held client never times out. After it, writes go through as
+/// before the gate existed.
+pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(300);
+
+/// How often the gate timer wakes the core to retry a write held at a gate (only while one is held): the
+/// added latency once the writer has matched, at the cost of a few hundred wake-ups at most per gate.
+pub const GATE_RECHECK: Duration = Duration::from_millis(2);
 
 /// How a datawriter or datareader names its topic.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -214,6 +242,84 @@ impl Node {
     }
 }
 
+/// What the gate timer thread does: wake the core every [`GATE_RECHECK`] until `until`, then once more.
+#[derive(Default)]
+struct TimerState {
+    until: Option<Instant>,
+    waker: Option<Waker>,
+    stop: bool,
+}
+
+/// Wakes the core while a write is held at a first-contact gate: the gate opens on a DDS event (a match)
+/// or a deadline, neither of which reaches the core otherwise. Its thread starts with the first held
+/// write and sleeps on a condition variable when no write is held.
+#[derive(Default)]
+struct GateTimer {
+    shared: Arc<(Mutex<TimerState>, Condvar)>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl GateTimer {
+    /// Keeps waking `waker` until `until` (the latest deadline asked for wins).
+    fn arm(&mut self, until: Instant, waker: Option<&Waker>) {
+        let Some(waker) = waker else { return }; // no shell to wake: the core retries on its next turn
+        {
+            let (m, c) = &*self.shared;
+            let mut st = m.lock().unwrap_or_else(PoisonError::into_inner);
+            st.until = Some(st.until.map_or(until, |u| u.max(until)));
+            st.waker = Some(Arc::clone(waker));
+            c.notify_one();
+        }
+        if self.thread.is_none() {
+            let shared = Arc::clone(&self.shared);
+            match std::thread::Builder::new().name("xrce-dds-gate".into()).spawn(move || Self::run(&shared)) {
+                Ok(t) => self.thread = Some(t),
+                Err(e) => tracing::warn!("no gate timer thread ({e}): held writes wait for the client's next message"),
+            }
+        }
+    }
+
+    /// No write is held any more.
+    fn disarm(&self) {
+        let (m, _) = &*self.shared;
+        m.lock().unwrap_or_else(PoisonError::into_inner).until = None;
+    }
+
+    fn run(shared: &(Mutex<TimerState>, Condvar)) {
+        let (m, c) = shared;
+        let mut st = m.lock().unwrap_or_else(PoisonError::into_inner);
+        loop {
+            if st.stop {
+                return;
+            }
+            let Some(until) = st.until else {
+                st = c.wait(st).unwrap_or_else(PoisonError::into_inner);
+                continue;
+            };
+            st = c.wait_timeout(st, GATE_RECHECK).unwrap_or_else(PoisonError::into_inner).0;
+            if Instant::now() >= until {
+                st.until = None; // one last wake-up: the held write goes through on the deadline
+            }
+            if let Some(w) = st.waker.clone() {
+                drop(st);
+                w();
+                st = m.lock().unwrap_or_else(PoisonError::into_inner);
+            }
+        }
+    }
+}
+
+impl Drop for GateTimer {
+    fn drop(&mut self) {
+        let (m, c) = &*self.shared;
+        m.lock().unwrap_or_else(PoisonError::into_inner).stop = true;
+        c.notify_one();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 /// The DDS middleware. See the module documentation.
 pub struct Dds {
     profiles: Arc<dyn ProfileSource>,
@@ -227,6 +333,12 @@ pub struct Dds {
     pinned: HashSet<EntityRef>,
     /// The ROS 2 graph (`ros_discovery_info`), unless turned off.
     graph: Option<RosGraph>,
+    /// Datawriters and requesters still at their first-contact gate, with its deadline.
+    gates: HashMap<EntityRef, Instant>,
+    gate_timer: GateTimer,
+    /// The default domain's DDS participant, created with the middleware when asked
+    /// ([`Dds::with_eager_participant`]).
+    eager: Option<Participant>,
 }
 
 impl std::fmt::Debug for Dds {
@@ -394,7 +506,60 @@ impl Dds {
             waker: None,
             pinned: HashSet::new(),
             graph: RosGraph::new(RosGraphMode::default()),
+            gates: HashMap::new(),
+            gate_timer: GateTimer::default(),
+            eager: None,
         }
+    }
+
+    /// Creates now the DDS participant an XRCE participant of the agent's domain (255) without profile
+    /// will use, so that discovery with the DDS applications already running is done before the first
+    /// client arrives (see the module documentation). It stays for the middleware's life. A failure is
+    /// logged and the participant is then created on first use, as without this.
+    pub fn with_eager_participant(mut self, eager: bool) -> Self {
+        self.eager = None;
+        if eager {
+            match self.bridge.participant(AGENT_DOMAIN, "") {
+                Ok(p) => {
+                    tracing::info!(guid = ?p.guid(), "default DDS participant created at start (discovery runs before clients arrive)");
+                    self.eager = Some(p);
+                }
+                Err(e) => tracing::warn!("default DDS participant not created at start: {e}"),
+            }
+        }
+        self
+    }
+
+    /// Whether `entity` (a datawriter or requester) may write as far as its first-contact gate goes; opens
+    /// (forgets) the gate once its DDS writer matched every reader known on its topic, or at its deadline.
+    fn gate_open(&mut self, entity: EntityRef) -> bool {
+        let Some(&deadline) = self.gates.get(&entity) else { return true };
+        let unmatched = match self.entities.get(&entity).map(|n| &n.handle) {
+            Some(Handle::Writer(w)) => w.writer.unmatched_known_readers(),
+            Some(Handle::Requester(r)) => r.unmatched_known_repliers(),
+            _ => 0,
+        };
+        let now = Instant::now();
+        if unmatched > 0 && now < deadline {
+            self.gate_timer.arm(deadline, self.waker.as_ref());
+            return false;
+        }
+        if unmatched > 0 {
+            tracing::info!(
+                ?entity,
+                unmatched,
+                "first-contact gate timed out; writing before every known reader matched"
+            );
+        } else {
+            // How long the writes were held: 0 when the writer had matched every known reader already.
+            let waited_ms = (now + FIRST_CONTACT_GATE).saturating_duration_since(deadline).as_secs_f64() * 1e3;
+            tracing::debug!(?entity, waited_ms, "first-contact gate open: every known reader matched");
+        }
+        self.gates.remove(&entity);
+        if self.gates.is_empty() {
+            self.gate_timer.disarm();
+        }
+        true
     }
 
     /// Publishes the ROS 2 graph with `mode`'s GIDs, or not at all ([`RosGraphMode::Off`]).
@@ -710,6 +875,11 @@ impl Middleware for Dds {
         }
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
+        if matches!(node.handle, Handle::Writer(_) | Handle::Requester(_)) {
+            self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE);
+        } else {
+            self.gates.remove(&creation.entity);
+        }
         if let (Some(w), Some(q)) = (&self.waker, node.queue()) {
             q.set_waker(Some(Arc::clone(w)));
         }
@@ -734,6 +904,7 @@ impl Middleware for Dds {
 
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
         self.pinned.remove(&entity);
+        self.gates.remove(&entity);
         let node = self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
         self.graph_unlink(entity, &node);
         self.owned.removed(entity.client);
@@ -745,6 +916,7 @@ impl Middleware for Dds {
             return;
         }
         self.pinned.retain(|e| e.client != client);
+        self.gates.retain(|e, _| e.client != client);
         if let Some(g) = &self.graph {
             // A node goes with its endpoints.
             for (e, node) in self.entities.iter().filter(|(e, _)| e.client == client) {
@@ -858,6 +1030,9 @@ impl Middleware for Dds {
     }
 
     fn can_write(&mut self, writer: EntityRef) -> bool {
+        if !self.gates.is_empty() && !self.gate_open(writer) {
+            return false;
+        }
         if self.pinned.is_empty() {
             return true;
         }

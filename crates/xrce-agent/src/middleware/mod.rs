@@ -210,8 +210,9 @@ pub trait Middleware {
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
 
-    /// Back-pressure for reliable writers: whether `writer` may publish now without making the middleware
-    /// drop a sample that a reliable reader has not taken yet. When false the core leaves the client's
+    /// Back-pressure for reliable writers: whether `writer` (a datawriter or a requester) may publish now
+    /// without making the middleware drop a sample that a reliable reader has not taken yet, or that a
+    /// reader it is about to match would miss (DDS: the first-contact gate of a new writer). When false the core leaves the client's
     /// reliable message unprocessed (held in its input window, unacknowledged) and retries after deliveries,
     /// so the client's own history fills and its writes block. Default: always.
     fn can_write(&mut self, _writer: EntityRef) -> bool {
@@ -323,13 +324,38 @@ impl MiddlewareKind {
         ros_graph: ros_graph::RosGraphMode,
         engine: Option<xrce_dds::Engine>,
     ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+        self.build_dds(profiles, ros_graph, DdsOptions { engine, eager_participant: false })
+    }
+
+    /// As [`Self::build_with`], with the DDS middleware's options (ignored by CED).
+    pub fn build_dds(
+        self,
+        profiles: Arc<dyn ProfileSource>,
+        ros_graph: ros_graph::RosGraphMode,
+        options: DdsOptions,
+    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
             Self::Dds | Self::Rtps => {
-                let config =
-                    xrce_dds::BridgeConfig { engine: engine.unwrap_or_default(), ..xrce_dds::BridgeConfig::default() };
-                Ok(Box::new(dds::Dds::with_config(profiles, config).with_ros_graph(ros_graph)))
+                let config = xrce_dds::BridgeConfig {
+                    engine: options.engine.unwrap_or_default(),
+                    ..xrce_dds::BridgeConfig::default()
+                };
+                Ok(Box::new(
+                    dds::Dds::with_config(profiles, config)
+                        .with_ros_graph(ros_graph)
+                        .with_eager_participant(options.eager_participant),
+                ))
             }
         }
     }
+}
+
+/// Options of the DDS middleware that the command line sets (ours, not eProsima's).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DdsOptions {
+    /// The DDS engine (`--dds-engine`; `None`: `XRCE_DDS_ENGINE`, else rustdds).
+    pub engine: Option<xrce_dds::Engine>,
+    /// Create the default domain's DDS participant at start (`--eager-participant`).
+    pub eager_participant: bool,
 }
