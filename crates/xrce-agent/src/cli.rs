@@ -67,7 +67,8 @@ pub struct Config {
     /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
     /// ours): discovery with running DDS applications is done before the first client arrives.
     pub eager_participant: bool,
-    /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE` or rustdds.
+    /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE`, else Fast DDS where
+    /// built, else rustdds.
     pub dds_engine: Option<DdsEngine>,
 }
 
@@ -76,7 +77,7 @@ pub struct Config {
 pub enum DdsEngine {
     /// Pure-Rust RustDDS.
     Rustdds,
-    /// Fast DDS 2.9 (agent built with the `fastdds` feature).
+    /// Fast DDS 2.x from the system (the `fastdds` feature, default).
     Fastdds,
 }
 
@@ -243,7 +244,7 @@ Arguments per transport (place them after the transport):
       --ros-graph <on|humble|off>     ROS 2 nodes for named XRCE participants (dds middleware; ours)
                                       [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
       --dds-engine <rustdds|fastdds>  DDS implementation of the dds middleware (ours)
-                                      [default: $XRCE_DDS_ENGINE or rustdds; fastdds needs the feature]
+                                      [default: $XRCE_DDS_ENGINE, else fastdds where built, else rustdds]
       --eager-participant <on|off>    create the default DDS participant at start, before any client
                                       (dds middleware; ours) [default: on]
   * IPvX (udp4, udp6, tcp4, tcp6)
@@ -330,7 +331,8 @@ struct CommonArgs {
     #[arg(long, value_enum, value_name = "MODE", default_value_t = RosGraph::On)]
     ros_graph: RosGraph,
 
-    /// DDS implementation behind the dds middleware (default: $XRCE_DDS_ENGINE, else rustdds).
+    /// DDS implementation behind the dds middleware (default: $XRCE_DDS_ENGINE, else fastdds where built, else
+    /// rustdds).
     #[arg(long, value_enum, value_name = "ENGINE")]
     dds_engine: Option<DdsEngine>,
     /// DDS middleware: create the default domain's DDS participant at start, so discovery with running

@@ -114,7 +114,7 @@ impl DdsBridge {
         map.retain(|_, w| w.strong_count() > 0);
         let inner = Arc::new(ParticipantInner::new(key.clone(), &self.config)?);
         map.insert(key, Arc::downgrade(&inner));
-        tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created");
+        tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created (RustDDS)");
         Ok(Participant { inner })
     }
 

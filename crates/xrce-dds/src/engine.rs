@@ -26,29 +26,45 @@ pub const ENGINE_ENV: &str = "XRCE_DDS_ENGINE";
 /// The DDS implementation behind the bridge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Engine {
-    /// Pure-Rust RustDDS 0.15.1.
+    /// Pure-Rust RustDDS 0.15.1: the fallback of builds without Fast DDS.
     RustDds,
-    /// Fast DDS 2.9 (needs the `fastdds` feature).
+    /// Fast DDS 2.x from the system (`libfastrtps-dev`; needs the `fastdds` feature): the default where built.
     FastDds,
 }
 
 impl Engine {
-    /// The engine named by [`ENGINE_ENV`]; RustDDS when unset or unknown.
+    /// The engine named by [`ENGINE_ENV`]; [`Engine::preferred`] when unset or unknown.
     pub fn from_env() -> Self {
         match std::env::var(ENGINE_ENV) {
             Ok(v) => v.parse().unwrap_or_else(|e| {
-                tracing::warn!("{ENGINE_ENV}: {e}; using rustdds");
-                Engine::RustDds
+                let preferred = Engine::preferred();
+                tracing::warn!("{ENGINE_ENV}: {e}; using {preferred:?}");
+                preferred
             }),
-            Err(_) => Engine::RustDds,
+            Err(_) => Engine::preferred(),
         }
     }
 
-    /// Whether this build carries the engine.
+    /// Fast DDS where this build has it (the `fastdds` feature, compiled with Fast DDS' headers), else
+    /// RustDDS. Fast DDS first: it is what ROS 2's default RMW and eProsima's agent use, and it meets ROS 2
+    /// nodes without RustDDS' first-contact stalls (docs/dds-engine.md).
+    pub fn preferred() -> Self {
+        if Engine::FastDds.is_available() {
+            Engine::FastDds
+        } else {
+            Engine::RustDds
+        }
+    }
+
+    /// Whether this build carries the engine (Fast DDS: the feature, and not the stub built without
+    /// Fast DDS' headers).
     pub fn is_available(self) -> bool {
         match self {
             Engine::RustDds => true,
-            Engine::FastDds => cfg!(feature = "fastdds"),
+            #[cfg(feature = "fastdds")]
+            Engine::FastDds => xrce_fastdds_sys::available(),
+            #[cfg(not(feature = "fastdds"))]
+            Engine::FastDds => false,
         }
     }
 }
