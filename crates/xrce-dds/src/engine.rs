@@ -352,3 +352,24 @@ impl RawReader {
         each!(self, r => r.guid())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Engine;
+
+    /// CI runs this (it installs libfastrtps-dev): the default engine must be the real Fast DDS, not the stub a
+    /// build without Fast DDS' headers gets, or the DDS suites would silently test the fallback.
+    #[test]
+    #[ignore = "CI only: needs libfastrtps-dev at build time"]
+    fn fast_dds_is_built_and_preferred() {
+        assert!(Engine::FastDds.is_available());
+        assert_eq!(Engine::preferred(), Engine::FastDds);
+    }
+
+    #[test]
+    fn engine_names_parse() {
+        assert_eq!("fastdds".parse::<Engine>(), Ok(Engine::FastDds));
+        assert_eq!(" RustDDS ".parse::<Engine>(), Ok(Engine::RustDds));
+        assert!("cyclone".parse::<Engine>().is_err());
+    }
+}
