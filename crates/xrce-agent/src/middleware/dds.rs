@@ -64,7 +64,9 @@
 //!   our reliable writer has matched it, the sample is kept for it until it acknowledges, so a reader that
 //!   matches later still gets it from the writer's heartbeats. With `eager_participant` (the CLI default)
 //!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
-//!   running are known before the first client arrives.
+//!   running are known before the first client arrives. A requester also holds its first request while no
+//!   replier has matched at all ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer
+//!   matches the readers its participant knows while it is created, so only that last condition holds it.
 //! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
 //!   keeps a 64-bit digest of it (std's `DefaultHasher`, fixed keys), not the description itself, to stay small.
 
@@ -114,6 +116,12 @@ pub const TAKE_BATCH: usize = 64;
 /// reliable publish to be confirmed, so a held client never times out. After it, writes go through as
 /// before the gate existed.
 pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(300);
+
+/// The same bound for a new requester, which also holds its first request while no replier has matched at
+/// all: a request written then is lost for certain (volatile), and applications call a service right after
+/// creating its client, while discovery with the server may still be under way (a Fast DDS 2.14 node and
+/// our participant take up to a few hundred ms). Still below micro-ROS' 1 s confirmation wait.
+pub const FIRST_CONTACT_GATE_REQUESTER: Duration = Duration::from_millis(600);
 
 /// How often the gate timer wakes the core to retry a write held at a gate (only while one is held): the
 /// added latency once the writer has matched, at the cost of a few hundred wake-ups at most per gate.
@@ -536,7 +544,7 @@ impl Dds {
         let Some(&deadline) = self.gates.get(&entity) else { return true };
         let unmatched = match self.entities.get(&entity).map(|n| &n.handle) {
             Some(Handle::Writer(w)) => w.writer.unmatched_known_readers(),
-            Some(Handle::Requester(r)) => r.unmatched_known_repliers(),
+            Some(Handle::Requester(r)) => r.unmatched_known_repliers() + usize::from(r.matched_repliers() == 0),
             _ => 0,
         };
         let now = Instant::now();
@@ -552,8 +560,7 @@ impl Dds {
             );
         } else {
             // How long the writes were held: 0 when the writer had matched every known reader already.
-            let waited_ms = (now + FIRST_CONTACT_GATE).saturating_duration_since(deadline).as_secs_f64() * 1e3;
-            tracing::debug!(?entity, waited_ms, "first-contact gate open: every known reader matched");
+            tracing::debug!(?entity, "first-contact gate open: every known reader matched");
         }
         self.gates.remove(&entity);
         if self.gates.is_empty() {
@@ -875,8 +882,10 @@ impl Middleware for Dds {
         }
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
-        if matches!(node.handle, Handle::Writer(_) | Handle::Requester(_)) {
+        if matches!(node.handle, Handle::Writer(_)) {
             self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE);
+        } else if matches!(node.handle, Handle::Requester(_)) {
+            self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE_REQUESTER);
         } else {
             self.gates.remove(&creation.entity);
         }
