@@ -126,11 +126,14 @@ fn keyed_samples_are_distinct_instances_for_cyclone() {
     let p = b.participant(0, "").unwrap();
     let t = p.topic("HelloWorldKeyedTopic", "HelloWorld", true).unwrap();
     let w = p.create_writer(&t, &EndpointQos::default()).unwrap();
-    let cyc = spawn(python("keyed_cyclone.py", &["30", "5"]));
+    let mut cyc = spawn(python("keyed_cyclone.py", &["30", "5"]));
     wait_matched(&w, 1, 30);
     std::thread::sleep(Duration::from_millis(500));
     let t0 = Instant::now();
-    for i in 1..=5 {
+    // Until the reader has its five (it may match our writer after we matched it: see the test above).
+    let mut i = 0;
+    while i < 80 && cyc.try_wait().ok().flatten().is_none() {
+        i += 1;
         w.write(&hello_body(i, "keyed hello from the XRCE bridge")).unwrap();
         std::thread::sleep(Duration::from_millis(50));
     }
