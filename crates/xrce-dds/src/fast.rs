@@ -159,6 +159,7 @@ fn to_fast(qos: &EndpointQos, reader: bool, keyed: bool) -> sys::Qos {
         keep_last,
         limits: (limits.max_samples, limits.max_instances, limits.max_samples_per_instance),
         max_blocking_time: qos.max_blocking_time,
+        partitions: qos.partitions.clone(),
         ..sys::Qos::default()
     }
 }

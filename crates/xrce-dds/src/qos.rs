@@ -87,6 +87,9 @@ pub struct EndpointQos {
     pub deadline: Option<Duration>,
     /// LIFESPAN duration.
     pub lifespan: Option<Duration>,
+    /// PARTITION names of the endpoint's publisher or subscriber (empty: the default partition). Applied by
+    /// the Fast DDS engine; RustDDS 0.15.1 has no PARTITION policy and ignores them.
+    pub partitions: Vec<String>,
 }
 
 impl Default for EndpointQos {
@@ -102,6 +105,7 @@ impl Default for EndpointQos {
             resource_limits: None,
             deadline: None,
             lifespan: None,
+            partitions: Vec::new(),
         }
     }
 }

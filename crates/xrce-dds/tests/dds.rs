@@ -241,3 +241,29 @@ fn writers_with_the_same_topic_and_qos_are_shared_until_the_last_handle_goes() {
     let w3 = pa.shared_writer(&ta, &EndpointQos::default()).unwrap();
     assert_ne!(w3.guid(), guid, "a new DDS writer after the last handle went");
 }
+
+/// PARTITION (Fast DDS engine; RustDDS has no such policy): a writer in partition "a" matches a reader in
+/// "a" and not one in "b".
+#[test]
+#[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]
+fn partitions_separate_endpoints_on_the_fast_dds_engine() {
+    let (a, b) = (bridge(), bridge());
+    if a.engine() != xrce_dds::Engine::FastDds {
+        println!("skipped: partitions need the Fast DDS engine");
+        return;
+    }
+    let pa = a.participant(0, "").unwrap();
+    let pb = b.participant(0, "").unwrap();
+    let ta = pa.topic("PartitionedTopic", "HelloWorld", false).unwrap();
+    let tb = pb.topic("PartitionedTopic", "HelloWorld", false).unwrap();
+    let in_part = |p: &str| EndpointQos { partitions: vec![p.to_owned()], ..EndpointQos::default() };
+    let other = pb.create_reader(&tb, &in_part("b")).unwrap();
+    let writer = pa.create_writer(&ta, &in_part("a")).unwrap();
+    let same = pb.create_reader(&tb, &in_part("a")).unwrap();
+    wait_matched(&writer, 1, 20);
+    writer.write(&hello_body(1, "partition a")).unwrap();
+    assert_eq!(collect(same.queue(), 1, 10).len(), 1, "the reader in partition a gets the sample");
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(writer.matched_readers(), 1, "only the reader of partition a matched");
+    assert!(other.queue().is_empty(), "the reader in partition b gets nothing");
+}

@@ -179,7 +179,8 @@ struct ReaderState {
 enum Handle {
     Participant(Participant),
     Topic(RawTopic),
-    Group,
+    /// A publisher or subscriber: its partitions (boxed slice: nodes stay small, and empty allocates nothing).
+    Group(Box<[String]>),
     // Endpoints are boxed like requesters and repliers: a node per entity stays small (thousands of clients).
     Writer(Box<WriterState>),
     Reader(Box<ReaderState>),
@@ -461,7 +462,7 @@ fn endpoint_gids(h: &Handle) -> Option<EndpointGids> {
         Handle::Reader(r) => Some((Some(r.reader.guid()), None)),
         Handle::Requester(r) => Some((Some(r.reply_reader_guid()), Some(r.request_writer_guid()))),
         Handle::Replier(r) => Some((Some(r.request_reader_guid()), Some(r.reply_writer_guid()))),
-        Handle::Participant(_) | Handle::Topic(_) | Handle::Group => None,
+        Handle::Participant(_) | Handle::Topic(_) | Handle::Group(_) => None,
     }
 }
 
@@ -685,11 +686,19 @@ impl Dds {
     }
 
     /// The participant above a publisher or subscriber.
+    /// `qos` with the partitions of the publisher or subscriber `group` (when it has any).
+    fn with_group_partitions(&self, group: Option<EntityRef>, qos: &DdsQos) -> DdsQos {
+        match group.and_then(|g| self.entities.get(&g)).map(|n| &n.handle) {
+            Some(Handle::Group(parts)) if !parts.is_empty() => DdsQos { partitions: parts.to_vec(), ..qos.clone() },
+            _ => qos.clone(),
+        }
+    }
+
     fn group_participant(&self, parent: Option<EntityRef>) -> Result<(EntityRef, Participant), MiddlewareError> {
         let group = parent.ok_or_else(|| invalid("missing parent"))?;
         let node = self.node(group)?;
         match node.handle {
-            Handle::Group => self.participant_of(node.parent),
+            Handle::Group(_) => self.participant_of(node.parent),
             _ => Err(invalid(format!("{group:?} is not a publisher or subscriber"))),
         }
     }
@@ -741,8 +750,8 @@ impl Dds {
                 Handle::Topic(p.topic(name, type_name, *keyed).map_err(dds_error)?)
             }
             (ObjectKind::Publisher | ObjectKind::Subscriber, Spec::Group { partitions }) => {
-                self.participant_of(parent)?;
-                if !partitions.is_empty() {
+                let (_, p) = self.participant_of(parent)?;
+                if !partitions.is_empty() && matches!(p, Participant::Rust(_)) {
                     // RustDDS 0.15.1 has no PARTITION policy (its QoS builder has none, its SEDP data
                     // carries none): endpoints below this group match as if in the default partition.
                     tracing::warn!(
@@ -751,11 +760,13 @@ impl Dds {
                         "DDS middleware: partitions cannot be applied (RustDDS has no PARTITION QoS)"
                     );
                 }
-                Handle::Group
+                // Fast DDS: the group's partitions go to every endpoint created below it.
+                Handle::Group(partitions.clone().into_boxed_slice())
             }
             (ObjectKind::DataWriter, Spec::Endpoint { topic, qos }) => {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
+                let qos = &self.with_group_partitions(parent, qos);
                 let topic = (p.guid(), t.name());
                 Handle::Writer(Box::new(WriterState {
                     writer: p.shared_writer(&t, qos).map_err(dds_error)?,
@@ -766,6 +777,7 @@ impl Dds {
             (ObjectKind::DataReader, Spec::Endpoint { topic, qos }) => {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
+                let qos = &self.with_group_partitions(parent, qos);
                 let topic = (p.guid(), t.name());
                 Handle::Reader(Box::new(ReaderState { reader: p.create_reader(&t, qos).map_err(dds_error)?, topic }))
             }
