@@ -9,13 +9,15 @@
 //! * **Topics** are raw: name, type name (a runtime string) and key kind, from XML (`<kind>WITH_KEY`), a
 //!   `-r` reference or the binary representation (never keyed, as eProsima).
 //! * **Publishers and subscribers** have no DDS counterpart of their own: the bridge gives every
-//!   participant one publisher and one subscriber, and endpoints carry their full QoS. Partitions cannot be
-//!   applied (RustDDS 0.15.1 has no PARTITION policy; logged).
-//! * **Names**: RustDDS 0.15.1 cannot announce a participant name (its SPDP data always leaves
-//!   PID_ENTITY_NAME out and it has no USER_DATA), so the XRCE participant's name reaches DDS only through
-//!   the ROS 2 graph ([`super::ros_graph`]): each named XRCE participant is a ROS 2 node, listed in the
-//!   `ros_discovery_info` sample of the shared DDS participant. Splitting participants by name would cost
-//!   a RustDDS participant (~9 MiB) per name and show nothing more.
+//!   participant one publisher and one subscriber, and endpoints carry their full QoS, with the partitions
+//!   of their XRCE publisher or subscriber (applied by the Fast DDS engine; RustDDS 0.15.1 has no PARTITION
+//!   policy: logged).
+//! * **Names**: XRCE participants share one DDS participant per domain on both engines, so the XRCE
+//!   participant's name reaches DDS through the ROS 2 graph ([`super::ros_graph`]): each named XRCE
+//!   participant is a ROS 2 node, listed in the `ros_discovery_info` sample of the shared DDS participant
+//!   (what ROS 2 reads since Foxy; it ignores participant names). A DDS participant per name would cost a
+//!   participant per client (Fast DDS ~5 MiB and 6 threads, RustDDS ~9 MiB) and lose what the eager shared
+//!   participant gives at first contact. RustDDS 0.15.1 cannot announce a participant name at all.
 //! * **History depth 0** (eProsima's C client leaves the depth out then) means the DDS default, keep-last 1.
 //! * **Datawriters and datareaders** get the QoS of their description: reliability, durability, history
 //!   kind and depth and resource limits from XML/references (Fast DDS defaults for what is left out), the
