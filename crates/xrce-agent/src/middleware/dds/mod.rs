@@ -73,22 +73,27 @@
 //!   keeps a 64-bit digest of it (std's `DefaultHasher`, fixed keys), not the description itself, to stay small.
 
 use std::collections::{HashMap, HashSet, VecDeque};
-use std::sync::{Arc, Condvar, Mutex, PoisonError};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use xrce_dds::{
-    BridgeConfig, DdsBridge, DdsError, Durability, EndpointQos as DdsQos, History, Participant, RawReader, RawTopic,
-    RawWriter, ReceivedSample, Reliability, Replier, Requester, ResourceLimits, SampleQueue, ServiceDescription,
-    AGENT_DOMAIN,
+    BridgeConfig, DdsBridge, DdsError, EndpointQos as DdsQos, Participant, RawReader, RawTopic, RawWriter,
+    ReceivedSample, Replier, Requester, SampleQueue, AGENT_DOMAIN,
 };
-use xrce_proto::object::{BinaryObject, EndpointQos as BinaryQos, QosFlags, Representation};
+use xrce_proto::object::Representation;
 use xrce_proto::types::{Guid, SequenceNumber};
-use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
+use xrce_proto::{ClientKey, ObjectKind, RequestId, SampleIdentity};
 
-use super::describe::{Description, ProfileSource, TopicRef};
+use super::describe::ProfileSource;
 use super::ros_graph::{RosGraph, RosGraphMode};
 use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample, Waker};
-use crate::profile::{self, EntityProfile};
+use crate::profile::{self};
+
+mod gate;
+mod spec;
+
+use gate::GateTimer;
+use spec::{spec_from_binary, spec_from_description, spec_from_profile, Spec, TopicSel};
 
 /// How many times a reliable write is retried when the DDS writer's send window stays full for its
 /// `max_blocking_time` (100 ms by default), before the sample is dropped with a warning. The core thread
@@ -128,25 +133,6 @@ pub const FIRST_CONTACT_GATE_REQUESTER: Duration = Duration::from_millis(600);
 /// How often the gate timer wakes the core to retry a write held at a gate (only while one is held): the
 /// added latency once the writer has matched, at the cost of a few hundred wake-ups at most per gate.
 pub const GATE_RECHECK: Duration = Duration::from_millis(2);
-
-/// How a datawriter or datareader names its topic.
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-enum TopicSel {
-    /// A topic object of the same client (binary representation).
-    Object(ObjectId),
-    /// By name (XML and references), with what the description says of type and key.
-    Name { name: String, type_name: Option<String>, keyed: bool },
-}
-
-/// Everything an entity is created from; REUSE compares it whole (through [`Spec::digest`]).
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-enum Spec {
-    Participant { domain: u16, name: Option<String> },
-    Topic { name: String, type_name: String, keyed: bool },
-    Group { partitions: Vec<String> },
-    Endpoint { topic: TopicSel, qos: DdsQos },
-    Service { desc: Box<ServiceDescription>, qos: DdsQos },
-}
 
 /// A topic as the DDS participant it lives in sees it: participant GUID and topic name. A local writer
 /// reaches exactly the local readers with the same one.
@@ -201,16 +187,6 @@ struct Node {
     local: VecDeque<ReceivedSample>,
 }
 
-impl Spec {
-    /// A 64-bit digest, the same for equal specs within the process (`DefaultHasher::new` has fixed keys).
-    fn digest(&self) -> u64 {
-        use std::hash::{Hash, Hasher};
-        let mut h = std::hash::DefaultHasher::new();
-        self.hash(&mut h);
-        h.finish()
-    }
-}
-
 impl Node {
     /// The queue the core reads from, for readers, requesters and repliers.
     fn queue(&self) -> Option<&SampleQueue> {
@@ -250,84 +226,6 @@ impl Node {
             (Some(_), None) => 0,
         };
         queued + self.local.len() + usize::try_from(in_flight.max(0)).unwrap_or(usize::MAX)
-    }
-}
-
-/// What the gate timer thread does: wake the core every [`GATE_RECHECK`] until `until`, then once more.
-#[derive(Default)]
-struct TimerState {
-    until: Option<Instant>,
-    waker: Option<Waker>,
-    stop: bool,
-}
-
-/// Wakes the core while a write is held at a first-contact gate: the gate opens on a DDS event (a match)
-/// or a deadline, neither of which reaches the core otherwise. Its thread starts with the first held
-/// write and sleeps on a condition variable when no write is held.
-#[derive(Default)]
-struct GateTimer {
-    shared: Arc<(Mutex<TimerState>, Condvar)>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl GateTimer {
-    /// Keeps waking `waker` until `until` (the latest deadline asked for wins).
-    fn arm(&mut self, until: Instant, waker: Option<&Waker>) {
-        let Some(waker) = waker else { return }; // no shell to wake: the core retries on its next turn
-        {
-            let (m, c) = &*self.shared;
-            let mut st = m.lock().unwrap_or_else(PoisonError::into_inner);
-            st.until = Some(st.until.map_or(until, |u| u.max(until)));
-            st.waker = Some(Arc::clone(waker));
-            c.notify_one();
-        }
-        if self.thread.is_none() {
-            let shared = Arc::clone(&self.shared);
-            match std::thread::Builder::new().name("xrce-dds-gate".into()).spawn(move || Self::run(&shared)) {
-                Ok(t) => self.thread = Some(t),
-                Err(e) => tracing::warn!("no gate timer thread ({e}): held writes wait for the client's next message"),
-            }
-        }
-    }
-
-    /// No write is held any more.
-    fn disarm(&self) {
-        let (m, _) = &*self.shared;
-        m.lock().unwrap_or_else(PoisonError::into_inner).until = None;
-    }
-
-    fn run(shared: &(Mutex<TimerState>, Condvar)) {
-        let (m, c) = shared;
-        let mut st = m.lock().unwrap_or_else(PoisonError::into_inner);
-        loop {
-            if st.stop {
-                return;
-            }
-            let Some(until) = st.until else {
-                st = c.wait(st).unwrap_or_else(PoisonError::into_inner);
-                continue;
-            };
-            st = c.wait_timeout(st, GATE_RECHECK).unwrap_or_else(PoisonError::into_inner).0;
-            if Instant::now() >= until {
-                st.until = None; // one last wake-up: the held write goes through on the deadline
-            }
-            if let Some(w) = st.waker.clone() {
-                drop(st);
-                w();
-                st = m.lock().unwrap_or_else(PoisonError::into_inner);
-            }
-        }
-    }
-}
-
-impl Drop for GateTimer {
-    fn drop(&mut self) {
-        let (m, c) = &*self.shared;
-        m.lock().unwrap_or_else(PoisonError::into_inner).stop = true;
-        c.notify_one();
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
     }
 }
 
@@ -371,86 +269,6 @@ fn dds_error(e: DdsError) -> MiddlewareError {
 
 fn unknown(what: impl std::fmt::Debug) -> MiddlewareError {
     MiddlewareError::UnknownReference(format!("{what:?}"))
-}
-
-/// Converts the QoS of an XML profile or reference (Fast DDS defaults already applied).
-fn qos_from_profile(q: &profile::EndpointQos) -> DdsQos {
-    let reliability = match q.reliability {
-        profile::Reliability::Reliable => Reliability::Reliable,
-        profile::Reliability::BestEffort => Reliability::BestEffort,
-    };
-    let durability = match q.durability {
-        profile::Durability::Volatile => Durability::Volatile,
-        profile::Durability::TransientLocal => Durability::TransientLocal,
-        profile::Durability::Transient => Durability::Transient,
-        profile::Durability::Persistent => Durability::Persistent,
-    };
-    let history = match q.history {
-        profile::History::KeepLast(d) => History::KeepLast(d.max(1)),
-        profile::History::KeepAll => History::KeepAll,
-    };
-    // Raw samples of a topic are one instance on our side (keyed or not), so only `max_samples` bounds
-    // anything. Fast DDS's defaults (5000/10/400) and "unlimited" leave the choice to the bridge, whose
-    // bounds never cut a reliable burst short; explicit limits are honoured.
-    let rl = q.resource_limits;
-    let resource_limits = match u32::try_from(rl.max_samples) {
-        Ok(m) if m > 0 && rl != profile::ResourceLimits::default() => {
-            Some(ResourceLimits { max_samples: m, max_instances: 1, max_samples_per_instance: m })
-        }
-        _ => None,
-    };
-    DdsQos { reliability, durability, history, resource_limits, ..DdsQos::default() }
-}
-
-/// Converts the QoS bits of a binary datawriter/datareader (spec §7.4); `None` gives Fast DDS's defaults.
-fn qos_from_binary(base: Option<&BinaryQos<'_>>, writer: bool) -> DdsQos {
-    let Some(b) = base else {
-        let defaults =
-            if writer { profile::EndpointQos::writer_default() } else { profile::EndpointQos::reader_default() };
-        return qos_from_profile(&defaults);
-    };
-    let flags = b.qos_flags;
-    let reliability = if flags & QosFlags::RELIABLE != 0 { Reliability::Reliable } else { Reliability::BestEffort };
-    let history = if flags & QosFlags::HISTORY_KEEP_LAST != 0 {
-        History::KeepLast(u32::from(b.history_depth.unwrap_or(1).max(1)))
-    } else {
-        History::KeepAll
-    };
-    let durability = if flags & QosFlags::DURABILITY_TRANSIENT_LOCAL != 0 {
-        Durability::TransientLocal
-    } else if flags & QosFlags::DURABILITY_TRANSIENT != 0 {
-        Durability::Transient
-    } else if flags & QosFlags::DURABILITY_PERSISTENT != 0 {
-        Durability::Persistent
-    } else {
-        Durability::Volatile
-    };
-    let ms = |v: u32| std::time::Duration::from_millis(u64::from(v));
-    DdsQos {
-        reliability,
-        durability,
-        history,
-        deadline: b.deadline_msec.filter(|&d| d > 0).map(ms),
-        lifespan: b.lifespan_msec.filter(|&d| d > 0).map(ms),
-        ..DdsQos::default()
-    }
-}
-
-fn service(
-    service_name: &str,
-    request_type: &str,
-    reply_type: &str,
-    request_topic: Option<&str>,
-    reply_topic: Option<&str>,
-) -> Box<ServiceDescription> {
-    let non_empty = |s: Option<&str>| s.filter(|s| !s.is_empty()).map(str::to_owned);
-    Box::new(ServiceDescription {
-        service_name: service_name.to_owned(),
-        request_type: request_type.to_owned(),
-        reply_type: reply_type.to_owned(),
-        request_topic_name: non_empty(request_topic),
-        reply_topic_name: non_empty(reply_topic),
-    })
 }
 
 /// The DDS reader and the DDS writer behind an XRCE endpoint (each if it has one).
@@ -796,96 +614,6 @@ impl Dds {
     }
 }
 
-fn spec_from_profile(p: EntityProfile) -> Result<Spec, MiddlewareError> {
-    Ok(match p {
-        EntityProfile::Participant(p) => Spec::Participant { domain: 0, name: p.name },
-        EntityProfile::Topic(t) => Spec::Topic {
-            type_name: t.type_name.ok_or_else(|| invalid(format!("topic {:?} has no dataType", t.name)))?,
-            name: t.name,
-            keyed: t.keyed,
-        },
-        EntityProfile::Publisher(g) => Spec::Group { partitions: g.partitions },
-        EntityProfile::Subscriber(g) => Spec::Group { partitions: g.partitions },
-        EntityProfile::DataWriter(w) => Spec::Endpoint {
-            qos: qos_from_profile(&w.qos),
-            topic: TopicSel::Name { name: w.topic.name, type_name: w.topic.type_name, keyed: w.topic.keyed },
-        },
-        EntityProfile::DataReader(r) => Spec::Endpoint {
-            qos: qos_from_profile(&r.qos),
-            topic: TopicSel::Name { name: r.topic.name, type_name: r.topic.type_name, keyed: r.topic.keyed },
-        },
-        EntityProfile::Requester(s) | EntityProfile::Replier(s) => Spec::Service {
-            desc: service(
-                &s.service_name,
-                &s.request_type,
-                &s.reply_type,
-                Some(&s.request_topic_name),
-                Some(&s.reply_topic_name),
-            ),
-            qos: DdsQos::default(),
-        },
-    })
-}
-
-/// For descriptions without QoS (the tolerant XML scan, references resolved by name only).
-fn spec_from_description(kind: ObjectKind, d: Description) -> Result<Spec, MiddlewareError> {
-    Ok(match d {
-        Description::Participant { name, .. } => Spec::Participant { domain: 0, name },
-        Description::Topic { name, type_name } => Spec::Topic {
-            type_name: type_name.ok_or_else(|| invalid(format!("topic {name:?} has no type name")))?,
-            name,
-            keyed: false,
-        },
-        Description::Group => Spec::Group { partitions: Vec::new() },
-        Description::Endpoint { topic } => {
-            let writer = kind == ObjectKind::DataWriter;
-            let defaults =
-                if writer { profile::EndpointQos::writer_default() } else { profile::EndpointQos::reader_default() };
-            let topic = match topic {
-                TopicRef::Name { name, type_name } => TopicSel::Name { name, type_name, keyed: false },
-                TopicRef::Object(id) => TopicSel::Object(id),
-            };
-            Spec::Endpoint { topic, qos: qos_from_profile(&defaults) }
-        }
-        Description::Service { service_name, request_type, reply_type } => {
-            let (Some(req), Some(rep)) = (request_type, reply_type) else {
-                return Err(invalid(format!("service {service_name:?} lacks its request or reply type")));
-            };
-            Spec::Service { desc: service(&service_name, &req, &rep, None, None), qos: DdsQos::default() }
-        }
-    })
-}
-
-fn spec_from_binary(b: BinaryObject<'_>) -> Result<Spec, MiddlewareError> {
-    Ok(match b {
-        BinaryObject::Participant(p) => {
-            Spec::Participant { domain: 0, name: p.qos_profile_reference.map(str::to_owned) }
-        }
-        BinaryObject::Topic(t) => Spec::Topic {
-            name: t.topic_name.to_owned(),
-            type_name: t
-                .type_name
-                .ok_or_else(|| invalid(format!("binary topic {:?} has no type name", t.topic_name)))?
-                .to_owned(),
-            keyed: false,
-        },
-        BinaryObject::Publisher(_) | BinaryObject::Subscriber(_) => Spec::Group { partitions: Vec::new() },
-        BinaryObject::DataWriter(w) => Spec::Endpoint {
-            topic: TopicSel::Object(w.topic_id),
-            qos: qos_from_binary(w.qos.as_ref().map(|q| &q.base), true),
-        },
-        BinaryObject::DataReader(r) => Spec::Endpoint {
-            topic: TopicSel::Object(r.topic_id),
-            qos: qos_from_binary(r.qos.as_ref().map(|q| &q.base), false),
-        },
-        BinaryObject::Requester(s) | BinaryObject::Replier(s) => Spec::Service {
-            desc: service(s.service_name, s.request_type, s.reply_type, s.request_topic_name, s.reply_topic_name),
-            qos: DdsQos::default(),
-        },
-        BinaryObject::Raw(_) => return Err(invalid("undecodable binary representation")),
-    })
-}
-
 impl Middleware for Dds {
     fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
         let spec = self.spec_of(creation)?;
@@ -1087,7 +815,10 @@ impl Middleware for Dds {
 
 #[cfg(test)]
 mod tests {
+    use super::spec::{qos_from_binary, qos_from_profile};
     use super::*;
+    use xrce_dds::{Durability, History, Reliability};
+    use xrce_proto::object::{EndpointQos as BinaryQos, QosFlags};
 
     #[test]
     fn binary_qos_bits_map_to_dds_qos() {
