@@ -120,19 +120,11 @@ macro_rules! entity_api {
 impl<E: Copy + Eq + Hash + Debug> Agent<E> {
     /// An agent on `kind` (only CED exists yet) with the given core limits.
     pub fn new(kind: MiddlewareKind, config: CoreConfig) -> Result<Self, UnsupportedMiddleware> {
-        Self::with_ros_graph(kind, config, RosGraphMode::default())
+        Self::with_dds(kind, config, RosGraphMode::default(), DdsOptions::default())
     }
 
-    /// As [`Agent::new`], with the DDS middleware's ROS 2 graph mode (`--ros-graph`).
-    pub fn with_ros_graph(
-        kind: MiddlewareKind,
-        config: CoreConfig,
-        ros_graph: RosGraphMode,
-    ) -> Result<Self, UnsupportedMiddleware> {
-        Self::with_dds(kind, config, ros_graph, DdsOptions::default())
-    }
-
-    /// As [`Agent::with_ros_graph`], with the DDS middleware's options (`--dds-engine`, `--eager-participant`).
+    /// As [`Agent::new`], with the DDS middleware's ROS 2 graph mode (`--ros-graph`) and options
+    /// (`--dds-engine`, `--eager-participant`).
     pub fn with_dds(
         kind: MiddlewareKind,
         config: CoreConfig,

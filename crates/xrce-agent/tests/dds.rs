@@ -6,6 +6,9 @@
 //!
 //!   ../shared/dds-peers/netns.sh xdds cargo test -p xrce-agent --test dds -- --ignored --test-threads 1
 
+mod netns;
+use netns::require_loopback_namespace;
+
 mod common;
 
 use std::collections::{HashMap, HashSet};
@@ -22,17 +25,6 @@ use xrce_proto::object::{BinaryObject, DataReaderBinary, DataReaderQos, QosFlags
 use xrce_proto::submessage::{AckNack, Create, CreationMode};
 use xrce_proto::Submessage;
 use xrce_proto::{message, EntityVariant, MessageHeader, ObjectId, ObjectKind, ObjectVariant, StatusCode, StreamId};
-
-/// Panics unless the only network interface is `lo` (we run under `netns.sh`).
-fn require_loopback_namespace() {
-    let ifaces: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
-        .unwrap_or_default();
-    assert!(
-        ifaces == ["lo"],
-        "DDS tests must run inside a loopback-only namespace (shared/dds-peers/netns.sh NAME cargo test ... -- --ignored); interfaces here: {ifaces:?}"
-    );
-}
 
 fn loopback() -> BridgeConfig {
     BridgeConfig { only_networks: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]), ..BridgeConfig::default() }

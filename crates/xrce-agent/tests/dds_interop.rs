@@ -7,6 +7,9 @@
 //!   XRCE_DDS_PEERS=$PWD/target/dds-peers ../shared/dds-peers/netns.sh xdds \
 //!       cargo test -p xrce-agent --test dds_interop -- --ignored --test-threads 1
 
+mod netns;
+use netns::AgentProcess;
+
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -15,13 +18,6 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use xrce_client::prelude::*;
-
-fn require_loopback_namespace() {
-    let ifaces: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
-        .unwrap_or_default();
-    assert!(ifaces == ["lo"], "DDS tests must run inside a loopback-only namespace; interfaces here: {ifaces:?}");
-}
 
 fn peers() -> PathBuf {
     PathBuf::from(
@@ -52,29 +48,6 @@ fn finish(c: Child, name: &str) -> (bool, String) {
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     println!("--- {name} (exit {:?})\n{stdout}{}", out.status.code(), String::from_utf8_lossy(&out.stderr));
     (out.status.success(), stdout)
-}
-
-/// Our agent binary, killed when dropped.
-struct AgentProcess(Child);
-
-impl AgentProcess {
-    fn start(port: u16) -> Self {
-        require_loopback_namespace();
-        let child = Command::new(env!("CARGO_BIN_EXE_xrce-agent"))
-            .args(["udp4", "-p", &port.to_string(), "-v", "3"])
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("agent starts");
-        std::thread::sleep(Duration::from_millis(300));
-        Self(child)
-    }
-}
-
-impl Drop for AgentProcess {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 /// CDR body of `struct HelloWorld { unsigned long index; string message; }`.

@@ -12,6 +12,9 @@
 //! failing run still reports); `scripts/ros2-first-contact.sh N` repeats the suite and tabulates them.
 //! `XRCE_ROS_AGENT=path` runs another agent binary (the release build, say) instead of this crate's debug one.
 
+mod netns;
+use netns::{require_loopback_namespace, AgentProcess};
+
 #[path = "../../xrce-client/examples/ros_like/mod.rs"]
 mod ros_like;
 
@@ -52,40 +55,16 @@ fn check_first_contact(ok: bool, what: &str) {
 
 // ---- processes ---------------------------------------------------------------------------------------------
 
-fn require_loopback_namespace() {
-    let ifaces: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
-        .unwrap_or_default();
-    assert!(ifaces == ["lo"], "ROS 2 tests must run inside a loopback-only namespace; interfaces here: {ifaces:?}");
+/// The agent under test: `XRCE_ROS_AGENT` if set, else this crate's binary.
+fn start_agent(port: u16) -> AgentProcess {
+    match std::env::var_os("XRCE_ROS_AGENT") {
+        Some(bin) => AgentProcess::start_bin(&PathBuf::from(bin), port),
+        None => AgentProcess::start(port),
+    }
 }
 
 fn venv() -> PathBuf {
     PathBuf::from(std::env::var_os("XRCE_ROS_VENV").expect("set XRCE_ROS_VENV to the venv .ci/ros2-venv.sh built"))
-}
-
-/// Our agent binary (`udp4 -p PORT`, default middleware: dds), killed when dropped.
-struct AgentProcess(Child);
-
-impl AgentProcess {
-    fn start(port: u16) -> Self {
-        require_loopback_namespace();
-        let bin = std::env::var_os("XRCE_ROS_AGENT")
-            .map_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_xrce-agent")), PathBuf::from);
-        let child = Command::new(&bin)
-            .args(["udp4", "-p", &port.to_string(), "-v", "3"])
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("agent starts");
-        std::thread::sleep(Duration::from_millis(300));
-        Self(child)
-    }
-}
-
-impl Drop for AgentProcess {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 /// A `ros_peer.py` process; its JSON lines arrive on `lines`.
@@ -343,7 +322,7 @@ fn written(events: &[Event]) -> Vec<(u64, u64)> {
 fn micro_ros_publisher_reaches_ros_subscriber() {
     const PORT: u16 = 18_931;
     const COUNT: u64 = 20;
-    let _agent = AgentProcess::start(PORT);
+    let _agent = start_agent(PORT);
     let mut ros = RosPeer::start("ros_listener", &["sub", "--topic", "xrce_chatter", "--timeout", "30"]);
     assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
     let mut plan = micro_ros(PORT, 0x0001_0001, "uros_talker");
@@ -399,7 +378,7 @@ fn micro_ros_publisher_reaches_ros_subscriber() {
 fn ros_publisher_reaches_micro_ros_subscriber() {
     const PORT: u16 = 18_932;
     const COUNT: usize = 20;
-    let _agent = AgentProcess::start(PORT);
+    let _agent = start_agent(PORT);
     let mut plan = micro_ros(PORT, 0x0001_0002, "uros_listener");
     plan.subscribe = Some("ros_chatter".into());
     plan.run_for = Duration::from_secs(20);
@@ -455,7 +434,7 @@ fn ros_publisher_reaches_micro_ros_subscriber() {
 fn services_between_ros_and_micro_ros() {
     const PORT: u16 = 18_933;
     const CALLS: u32 = 5;
-    let _agent = AgentProcess::start(PORT);
+    let _agent = start_agent(PORT);
     let mut server = RosPeer::start("ros_server", &["serve", "--service", "ros_set_bool", "--timeout", "20"]);
     assert!(server.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS server starts");
     let mut plan = micro_ros(PORT, 0x0001_0003, "uros_services");
@@ -538,7 +517,7 @@ fn px4_best_effort_and_replier_with_ros() {
     const PORT: u16 = 18_934;
     const COUNT: u64 = 200;
     const CALLS: usize = 5;
-    let _agent = AgentProcess::start(PORT);
+    let _agent = start_agent(PORT);
     let mut ros = RosPeer::start(
         "ros_px4_listener",
         &["sub", "--best-effort", "--topic", "/fmu/out/vehicle_status", "--timeout", "30"],
@@ -609,7 +588,7 @@ fn px4_best_effort_and_replier_with_ros() {
 #[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
 fn ros_graph_lists_micro_ros_node_and_px4() {
     const PORT: u16 = 18_935;
-    let _agent = AgentProcess::start(PORT);
+    let _agent = start_agent(PORT);
     let mut plan = micro_ros(PORT, 0x0001_0005, "uros_graph_node");
     plan.publish = Some(PubPlan { topic: "uros_graph_topic".into(), count: 1000, period_ms: 100, max_warmup: 0 });
     plan.subscribe = Some("uros_graph_in".into());

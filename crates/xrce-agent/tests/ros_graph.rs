@@ -9,6 +9,9 @@
 //!   XRCE_ROS_VENV=/work/ros/venv ../shared/dds-peers/netns.sh xros \
 //!     cargo test -p xrce-agent --test ros_graph -- --ignored --nocapture
 
+mod netns;
+use netns::require_loopback_namespace;
+
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
@@ -16,13 +19,6 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use xrce_agent::agent::AgentInstance;
 use xrce_client::prelude::*;
-
-fn require_loopback_namespace() {
-    let ifaces: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
-        .unwrap_or_default();
-    assert!(ifaces == ["lo"], "ROS 2 tests must run inside a loopback-only namespace; interfaces here: {ifaces:?}");
-}
 
 /// Prints the graph as one compact JSON line whenever it changes, for `argv[1]` seconds: the nodes and, per
 /// node other than the probe (key `namespace|name`), its publishers, subscriptions and services.

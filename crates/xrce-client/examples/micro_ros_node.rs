@@ -17,7 +17,7 @@ mod ros_like;
 
 use std::time::Duration;
 
-use ros_like::{run_micro_ros, Control, MicroRosPlan, PubPlan};
+use ros_like::{run_micro_ros, Control, MicroRosPlan};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = ros_like::Args::parse(&[
@@ -42,15 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         key: args.num("key", 0x5a00_0000 | std::process::id())?,
         node: args.get("node").unwrap_or("micro_ros_node").to_string(),
         domain: args.num("domain", 0)?,
-        publish: match args.get("pub") {
-            Some(t) => Some(PubPlan {
-                topic: t.to_string(),
-                count: args.num("count", 20)?,
-                period_ms: args.num("period-ms", 100)?,
-                max_warmup: 0,
-            }),
-            None => None,
-        },
+        publish: args.pub_plan(20, 100)?,
         subscribe: args.get("sub").map(str::to_string),
         serve: args.get("serve").map(str::to_string),
         call: match args.get("call") {

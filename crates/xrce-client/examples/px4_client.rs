@@ -16,7 +16,7 @@ mod ros_like;
 
 use std::time::Duration;
 
-use ros_like::{run_px4, Control, PubPlan, Px4Plan};
+use ros_like::{run_px4, Control, Px4Plan};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = ros_like::Args::parse(&[
@@ -37,15 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Two clients with one key are one client to the agent: derive a default from the process id.
         key: args.num("key", 0x9f00_0000 | std::process::id())?,
         domain: args.num("domain", 0)?,
-        publish: match args.get("pub") {
-            Some(t) => Some(PubPlan {
-                topic: t.to_string(),
-                count: args.num("count", 200)?,
-                period_ms: args.num("period-ms", 10)?,
-                max_warmup: 0,
-            }),
-            None => None,
-        },
+        publish: args.pub_plan(200, 10)?,
         subscribe: args.get("sub").map(str::to_string),
         serve: args.get("serve").map(str::to_string),
         run_for: Duration::from_secs(args.num("run-for-s", 30)?),

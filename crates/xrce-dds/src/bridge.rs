@@ -6,10 +6,10 @@
 //! datawriter fit in one RustDDS participant (issue 5 item 6). Writers can be shared the same way
 //! ([`Participant::shared_writer`]): one DDS writer per topic and QoS, however many XRCE datawriters use it.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 use std::net::IpAddr;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use rustdds::mio1::Token;
@@ -20,6 +20,7 @@ use crate::error::DdsError;
 use crate::qos::EndpointQos;
 use crate::raw::{RawAdapter, RawSample};
 use crate::reader::{Dispatcher, Filter, RawSource, SampleIdentity, SampleQueue};
+use crate::shared::{lock, TopicTable, WeakMap};
 
 /// XRCE domain id meaning "the agent's domain" (spec §7.3).
 pub const AGENT_DOMAIN: i32 = 255;
@@ -29,11 +30,6 @@ pub const DOMAIN_OVERRIDE_ENV: &str = "XRCE_DOMAIN_ID_OVERRIDE";
 
 /// Highest domain id RustDDS can map to UDP ports (7400 + 250 × id + 11 must stay below 65536).
 pub const MAX_DOMAIN_ID: u16 = 232;
-
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    // Poisoning only means a panic elsewhere; the maps stay consistent (single inserts/removes).
-    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
 
 fn create_err(what: &'static str) -> impl FnOnce(rustdds::dds::CreateError) -> DdsError {
     move |e| DdsError::Create { what, reason: e.to_string() }
@@ -65,7 +61,7 @@ pub struct ParticipantKey {
 /// as some [`Participant`] handle (or an entity created from one) does.
 pub struct DdsBridge {
     config: BridgeConfig,
-    participants: Mutex<HashMap<ParticipantKey, Weak<ParticipantInner>>>,
+    participants: WeakMap<ParticipantKey, ParticipantInner>,
 }
 
 impl std::fmt::Debug for DdsBridge {
@@ -80,7 +76,7 @@ impl std::fmt::Debug for DdsBridge {
 impl DdsBridge {
     /// A bridge with no participant yet (rustdds engine, whatever `config.engine` says).
     pub fn new(config: BridgeConfig) -> Self {
-        Self { config, participants: Mutex::new(HashMap::new()) }
+        Self { config, participants: WeakMap::default() }
     }
 
     /// The DDS domain for an XRCE domain id: 255 becomes the override (environment or config), anything
@@ -107,14 +103,11 @@ impl DdsBridge {
     /// the agent's domain.
     pub fn participant(&self, xrce_domain_id: i32, profile: &str) -> Result<Participant, DdsError> {
         let key = ParticipantKey { domain_id: self.resolve_domain(xrce_domain_id)?, profile: profile.to_owned() };
-        let mut map = lock(&self.participants);
-        if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
-            return Ok(Participant { inner });
-        }
-        map.retain(|_, w| w.strong_count() > 0);
-        let inner = Arc::new(ParticipantInner::new(key.clone(), &self.config)?);
-        map.insert(key, Arc::downgrade(&inner));
-        tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created (RustDDS)");
+        let inner = self.participants.get_or_try_insert(key.clone(), || {
+            let inner = ParticipantInner::new(key, &self.config)?;
+            tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created (RustDDS)");
+            Ok::<_, DdsError>(Arc::new(inner))
+        })?;
         Ok(Participant { inner })
     }
 
@@ -125,23 +118,17 @@ impl DdsBridge {
 
     /// DDS participants alive now.
     pub fn participant_count(&self) -> usize {
-        lock(&self.participants).values().filter(|w| w.strong_count() > 0).count()
+        self.participants.live()
     }
-}
-
-struct TopicEntry {
-    topic: Topic,
-    type_name: String,
-    keyed: bool,
 }
 
 struct ParticipantInner {
     // Field order is drop order: the dispatcher (and the RustDDS readers it owns) goes before the
     // subscriber, publisher and participant they were created from.
     dispatcher: Dispatcher,
-    topics: Mutex<HashMap<String, TopicEntry>>,
+    topics: TopicTable<Topic>,
     /// Writers shared by every XRCE datawriter with the same topic and QoS (see [`Participant::shared_writer`]).
-    writers: Mutex<HashMap<(String, EndpointQos), Weak<crate::engine::RawWriter>>>,
+    writers: WeakMap<(String, EndpointQos), crate::engine::RawWriter>,
     subscriber: Subscriber,
     publisher: Publisher,
     participant: DomainParticipant,
@@ -162,8 +149,8 @@ impl ParticipantInner {
         let dispatcher = Dispatcher::start(format!("xrce-dds-d{}", key.domain_id))?;
         Ok(Self {
             dispatcher,
-            topics: Mutex::new(HashMap::new()),
-            writers: Mutex::new(HashMap::new()),
+            topics: TopicTable::default(),
+            writers: WeakMap::default(),
             subscriber,
             publisher,
             participant,
@@ -236,31 +223,20 @@ impl Participant {
     /// The participant's topic `name`, created on first use. A second request with another type name or
     /// key kind fails: DDS allows one type per topic name in a participant.
     pub fn topic(&self, name: &str, type_name: &str, keyed: bool) -> Result<RawTopic, DdsError> {
-        let mut topics = lock(&self.inner.topics);
-        if let Some(e) = topics.get(name) {
-            if e.type_name != type_name || e.keyed != keyed {
-                return Err(DdsError::TopicMismatch {
-                    name: name.to_owned(),
-                    existing_type: e.type_name.clone(),
-                    existing_keyed: e.keyed,
-                });
-            }
-            return Ok(RawTopic { topic: e.topic.clone(), keyed });
-        }
         let kind = if keyed { TopicKind::WithKey } else { TopicKind::NoKey };
         // Empty topic QoS: endpoints carry their own, and RustDDS sizes the topic cache from the readers.
-        let topic = self
-            .inner
-            .participant
-            .create_topic(name.to_owned(), type_name.to_owned(), &QosPolicyBuilder::new().build(), kind)
-            .map_err(create_err("topic"))?;
-        topics.insert(name.to_owned(), TopicEntry { topic: topic.clone(), type_name: type_name.to_owned(), keyed });
+        let topic = self.inner.topics.get_or_try_create(name, type_name, keyed, || {
+            self.inner
+                .participant
+                .create_topic(name.to_owned(), type_name.to_owned(), &QosPolicyBuilder::new().build(), kind)
+                .map_err(create_err("topic"))
+        })?;
         Ok(RawTopic { topic, keyed })
     }
 
     /// The participant's topic `name` if some earlier [`Participant::topic`] created it (whatever its type).
     pub fn find_topic(&self, name: &str) -> Option<RawTopic> {
-        lock(&self.inner.topics).get(name).map(|e| RawTopic { topic: e.topic.clone(), keyed: e.keyed })
+        self.inner.topics.find(name).map(|e| RawTopic { topic: e.topic, keyed: e.keyed })
     }
 
     /// The datawriter on `topic` with `qos` shared by every caller asking for the same pair, created on first
@@ -273,18 +249,9 @@ impl Participant {
         topic: &RawTopic,
         qos: &EndpointQos,
     ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
-        let key = (topic.name(), qos.clone());
-        let mut map = lock(&self.inner.writers);
-        if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
-            return Ok(w);
-        }
-        // Dead entries are pruned whenever the map doubles: amortised O(1) per creation.
-        if map.len() >= 16 && map.len().is_power_of_two() {
-            map.retain(|_, w| w.strong_count() > 0);
-        }
-        let w = Arc::new(crate::engine::RawWriter::Rust(Arc::new(self.create_writer(topic, qos)?)));
-        map.insert(key, Arc::downgrade(&w));
-        Ok(w)
+        self.inner.writers.get_or_try_insert((topic.name(), qos.clone()), || {
+            Ok(Arc::new(crate::engine::RawWriter::Rust(Arc::new(self.create_writer(topic, qos)?))))
+        })
     }
 
     /// A datawriter on `topic`, this caller's own.
@@ -508,10 +475,6 @@ impl Drop for RawReader {
     fn drop(&mut self) {
         self.participant.dispatcher.remove(self.token);
     }
-}
-
-pub(crate) fn lock_pending(m: &Mutex<crate::service::Pending>) -> MutexGuard<'_, crate::service::Pending> {
-    lock(m)
 }
 
 #[cfg(test)]

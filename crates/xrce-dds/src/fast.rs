@@ -10,14 +10,14 @@
 //! the reader's bounded [`SampleQueue`]; when the queue is full, taking stops (samples wait in Fast DDS'
 //! history, whose reliable flow control then holds the writer back) and the agent's draining resumes it.
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex, MutexGuard, OnceLock, PoisonError, Weak};
+use std::sync::{Arc, Mutex, OnceLock, Weak};
 use std::time::Duration;
 
 use xrce_fastdds_sys as sys;
 
 use crate::qos::{Durability, EndpointQos, History, Reliability};
 use crate::reader::{Filter, ReceivedSample, Resume};
+use crate::shared::{lock, TopicTable, WeakMap};
 use crate::{BridgeConfig, DdsError, ParticipantKey, SampleIdentity, SampleQueue};
 
 /// Samples moved from Fast DDS to a queue per lock of the queue.
@@ -26,11 +26,6 @@ const BATCH: usize = 256;
 /// Name every Fast DDS participant of the agent announces.
 const PARTICIPANT_NAME: &str = "xrce-rs";
 
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    // A poisoned lock only means a panic elsewhere; the maps stay consistent (single inserts/removes).
-    m.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
 fn create_err(what: &'static str) -> impl FnOnce(sys::Error) -> DdsError {
     move |e| DdsError::Create { what, reason: e.to_string() }
 }
@@ -38,7 +33,7 @@ fn create_err(what: &'static str) -> impl FnOnce(sys::Error) -> DdsError {
 /// Creates and shares Fast DDS participants.
 pub(crate) struct Bridge {
     config: BridgeConfig,
-    participants: Mutex<HashMap<ParticipantKey, Weak<ParticipantInner>>>,
+    participants: WeakMap<ParticipantKey, ParticipantInner>,
 }
 
 impl std::fmt::Debug for Bridge {
@@ -49,50 +44,40 @@ impl std::fmt::Debug for Bridge {
 
 impl Bridge {
     pub(crate) fn new(config: BridgeConfig) -> Self {
-        Self { config, participants: Mutex::new(HashMap::new()) }
+        Self { config, participants: WeakMap::default() }
     }
 
     pub(crate) fn participant(&self, domain_id: u16, profile: &str) -> Result<Participant, DdsError> {
         let key = ParticipantKey { domain_id, profile: profile.to_owned() };
-        let mut map = lock(&self.participants);
-        if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
-            return Ok(Participant { inner });
-        }
-        map.retain(|_, w| w.strong_count() > 0);
-        let cfg = sys::ParticipantConfig {
-            domain: u32::from(domain_id),
-            name: PARTICIPANT_NAME.to_owned(),
-            whitelist: self.config.only_networks.iter().flatten().map(ToString::to_string).collect(),
-            // Fast DDS' default is 5 announcements 100 ms apart; a denser start lets peers that are already
-            // up discover us (and answer with their own SPDP) sooner.
-            announcements: (10, Duration::from_millis(50)),
-        };
-        let participant = sys::Participant::new(&cfg).map_err(create_err("participant"))?;
-        let inner = Arc::new(ParticipantInner {
-            topics: Mutex::new(HashMap::new()),
-            writers: Mutex::new(HashMap::new()),
-            participant,
-            key: key.clone(),
-        });
-        map.insert(key, Arc::downgrade(&inner));
-        tracing::info!(domain = domain_id, profile = %profile, "DDS participant created (Fast DDS)");
+        let inner = self.participants.get_or_try_insert(key.clone(), || {
+            let cfg = sys::ParticipantConfig {
+                domain: u32::from(domain_id),
+                name: PARTICIPANT_NAME.to_owned(),
+                whitelist: self.config.only_networks.iter().flatten().map(ToString::to_string).collect(),
+                // Fast DDS' default is 5 announcements 100 ms apart; a denser start lets peers that are
+                // already up discover us (and answer with their own SPDP) sooner.
+                announcements: (10, Duration::from_millis(50)),
+            };
+            let participant = sys::Participant::new(&cfg).map_err(create_err("participant"))?;
+            tracing::info!(domain = domain_id, profile = %profile, "DDS participant created (Fast DDS)");
+            Ok::<_, DdsError>(Arc::new(ParticipantInner {
+                topics: TopicTable::default(),
+                writers: WeakMap::default(),
+                participant,
+                key,
+            }))
+        })?;
         Ok(Participant { inner })
     }
 
     pub(crate) fn participant_count(&self) -> usize {
-        lock(&self.participants).values().filter(|w| w.strong_count() > 0).count()
+        self.participants.live()
     }
 }
 
-struct TopicEntry {
-    topic: Arc<sys::Topic>,
-    type_name: String,
-    keyed: bool,
-}
-
 struct ParticipantInner {
-    topics: Mutex<HashMap<String, TopicEntry>>,
-    writers: Mutex<HashMap<(String, EndpointQos), Weak<crate::engine::RawWriter>>>,
+    topics: TopicTable<Arc<sys::Topic>>,
+    writers: WeakMap<(String, EndpointQos), crate::engine::RawWriter>,
     participant: sys::Participant,
     key: ParticipantKey,
 }
@@ -178,35 +163,15 @@ impl Participant {
     }
 
     pub(crate) fn topic(&self, name: &str, type_name: &str, keyed: bool) -> Result<RawTopic, DdsError> {
-        let mut topics = lock(&self.inner.topics);
-        if let Some(e) = topics.get(name) {
-            if e.type_name != type_name || e.keyed != keyed {
-                return Err(DdsError::TopicMismatch {
-                    name: name.to_owned(),
-                    existing_type: e.type_name.clone(),
-                    existing_keyed: e.keyed,
-                });
-            }
-            return Ok(RawTopic {
-                topic: Arc::clone(&e.topic),
-                name: name.to_owned(),
-                type_name: type_name.to_owned(),
-                keyed,
-            });
-        }
-        let topic = Arc::new(self.inner.participant.topic(name, type_name, keyed).map_err(create_err("topic"))?);
-        topics
-            .insert(name.to_owned(), TopicEntry { topic: Arc::clone(&topic), type_name: type_name.to_owned(), keyed });
+        let topic = self.inner.topics.get_or_try_create(name, type_name, keyed, || {
+            self.inner.participant.topic(name, type_name, keyed).map(Arc::new).map_err(create_err("topic"))
+        })?;
         Ok(RawTopic { topic, name: name.to_owned(), type_name: type_name.to_owned(), keyed })
     }
 
     pub(crate) fn find_topic(&self, name: &str) -> Option<RawTopic> {
-        lock(&self.inner.topics).get(name).map(|e| RawTopic {
-            topic: Arc::clone(&e.topic),
-            name: name.to_owned(),
-            type_name: e.type_name.clone(),
-            keyed: e.keyed,
-        })
+        let e = self.inner.topics.find(name)?;
+        Some(RawTopic { topic: e.topic, name: name.to_owned(), type_name: e.type_name, keyed: e.keyed })
     }
 
     pub(crate) fn shared_writer(
@@ -214,18 +179,9 @@ impl Participant {
         topic: &RawTopic,
         qos: &EndpointQos,
     ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
-        let key = (topic.name.clone(), qos.clone());
-        let mut map = lock(&self.inner.writers);
-        if let Some(w) = map.get(&key).and_then(Weak::upgrade) {
-            return Ok(w);
-        }
-        // Dead entries are pruned whenever the map doubles: amortised O(1) per creation.
-        if map.len() >= 16 && map.len().is_power_of_two() {
-            map.retain(|_, w| w.strong_count() > 0);
-        }
-        let w = Arc::new(crate::engine::RawWriter::Fast(Arc::new(self.create_writer(topic, qos)?)));
-        map.insert(key, Arc::downgrade(&w));
-        Ok(w)
+        self.inner.writers.get_or_try_insert((topic.name.clone(), qos.clone()), || {
+            Ok(Arc::new(crate::engine::RawWriter::Fast(Arc::new(self.create_writer(topic, qos)?))))
+        })
     }
 
     pub(crate) fn create_writer(&self, topic: &RawTopic, qos: &EndpointQos) -> Result<RawWriter, DdsError> {

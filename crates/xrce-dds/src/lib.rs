@@ -26,6 +26,7 @@ mod qos;
 mod raw;
 mod reader;
 mod service;
+mod shared;
 
 pub use bridge::{BridgeConfig, ParticipantKey, AGENT_DOMAIN, DOMAIN_OVERRIDE_ENV, MAX_DOMAIN_ID};
 pub use engine::{DdsBridge, Engine, Participant, RawReader, RawTopic, RawWriter, ENGINE_ENV};

@@ -14,11 +14,11 @@
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 
-use crate::bridge::lock_pending;
 use crate::engine::{Participant, RawReader, RawWriter};
 use crate::error::DdsError;
 use crate::qos::EndpointQos;
 use crate::reader::{SampleIdentity, SampleQueue};
+use crate::shared::lock;
 
 /// Requests awaiting a reply, per requester; beyond this the oldest is forgotten (its late reply is
 /// dropped), so a replier that never answers cannot grow the table without bound.
@@ -88,7 +88,7 @@ impl Requester {
             if related.writer_guid != own && own_reader.get() != Some(&related.writer_guid) {
                 return None; // a reply to another requester on the same topic
             }
-            let id = lock_pending(&p).map.remove(&related.sequence_number)?;
+            let id = lock(&p).map.remove(&related.sequence_number)?;
             s.request_id = Some(id);
             Some(s)
         });
@@ -103,7 +103,7 @@ impl Requester {
     /// reply. The pending table is locked across the write so a very fast reply cannot overtake the
     /// bookkeeping.
     pub fn write_request(&self, request_id: u32, body: &[u8]) -> Result<SampleIdentity, DdsError> {
-        let mut pending = lock_pending(&self.pending);
+        let mut pending = lock(&self.pending);
         let id = self.writer.write(body)?;
         if pending.map.len() >= MAX_PENDING_REQUESTS {
             pending.map.pop_first();

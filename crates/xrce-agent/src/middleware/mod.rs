@@ -305,29 +305,10 @@ impl MiddlewareKind {
 
     /// Builds the middleware, or says why not.
     pub fn build(self, profiles: Arc<dyn ProfileSource>) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
-        self.build_with(profiles, ros_graph::RosGraphMode::default())
+        self.build_dds(profiles, ros_graph::RosGraphMode::default(), DdsOptions::default())
     }
 
-    /// As [`Self::build`], with the ROS 2 graph mode of the DDS middleware (ignored by CED).
-    pub fn build_with(
-        self,
-        profiles: Arc<dyn ProfileSource>,
-        ros_graph: ros_graph::RosGraphMode,
-    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
-        self.build_with_engine(profiles, ros_graph, None)
-    }
-
-    /// As [`Self::build_with`], with the DDS engine (`None`: `XRCE_DDS_ENGINE`, else rustdds).
-    pub fn build_with_engine(
-        self,
-        profiles: Arc<dyn ProfileSource>,
-        ros_graph: ros_graph::RosGraphMode,
-        engine: Option<xrce_dds::Engine>,
-    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
-        self.build_dds(profiles, ros_graph, DdsOptions { engine, eager_participant: false })
-    }
-
-    /// As [`Self::build_with`], with the DDS middleware's options (ignored by CED).
+    /// As [`Self::build`], with the ROS 2 graph mode and the options of the DDS middleware (ignored by CED).
     pub fn build_dds(
         self,
         profiles: Arc<dyn ProfileSource>,

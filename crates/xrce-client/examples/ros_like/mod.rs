@@ -752,4 +752,15 @@ impl Args {
             Some(v) => v.parse().map_err(|_| format!("--{name}: not a number: {v:?}")),
         }
     }
+
+    /// `--pub TOPIC [--count N] [--period-ms MS]`, with these defaults; `None` without `--pub`.
+    pub fn pub_plan(&self, count: u64, period_ms: u64) -> Result<Option<PubPlan>, String> {
+        let Some(topic) = self.get("pub") else { return Ok(None) };
+        Ok(Some(PubPlan {
+            topic: topic.to_string(),
+            count: self.num("count", count)?,
+            period_ms: self.num("period-ms", period_ms)?,
+            max_warmup: 0,
+        }))
+    }
 }

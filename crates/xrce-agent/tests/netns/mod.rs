@@ -1,0 +1,48 @@
+//! Support for the tests that start DDS participants (`dds`, `dds_interop`, `ros2`, `ros_graph`): they run only
+//! inside a loopback-only network namespace (`shared/dds-peers/netns.sh NAME cargo test … -- --ignored`), and
+//! the agent binary they start is killed with them.
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+/// Panics unless the only network interface is `lo`: DDS discovery multicast must never leave the machine.
+pub fn require_loopback_namespace() {
+    let ifaces: Vec<String> = std::fs::read_dir("/sys/class/net")
+        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
+        .unwrap_or_default();
+    assert!(
+        ifaces == ["lo"],
+        "DDS tests must run inside a loopback-only namespace (shared/dds-peers/netns.sh NAME cargo test ... -- --ignored); interfaces here: {ifaces:?}"
+    );
+}
+
+/// An agent binary (`udp4 -p PORT -v 3`, default middleware: dds), killed when dropped.
+pub struct AgentProcess(Child);
+
+impl AgentProcess {
+    /// This crate's agent binary.
+    pub fn start(port: u16) -> Self {
+        Self::start_bin(Path::new(env!("CARGO_BIN_EXE_xrce-agent")), port)
+    }
+
+    /// The agent binary `bin` (another build, or eProsima's `MicroXRCEAgent`).
+    pub fn start_bin(bin: &Path, port: u16) -> Self {
+        require_loopback_namespace();
+        let child = Command::new(bin)
+            .args(["udp4", "-p", &port.to_string(), "-v", "3"])
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("agent starts");
+        std::thread::sleep(Duration::from_millis(300));
+        Self(child)
+    }
+}
+
+impl Drop for AgentProcess {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
