@@ -124,7 +124,7 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
     }
 
     /// As [`Agent::new`], with the DDS middleware's ROS 2 graph mode (`--ros-graph`) and options
-    /// (`--dds-engine`, `--eager-participant`).
+    /// (`--dds-engine`, `--eager-participant`, `--participant-names`).
     pub fn with_dds(
         kind: MiddlewareKind,
         config: CoreConfig,
@@ -427,7 +427,11 @@ type Started = (AgentHandle, JoinHandle<std::io::Result<()>>, Option<SocketAddr>
 
 /// The DDS middleware's options from the command line.
 fn dds_options(config: &Config) -> DdsOptions {
-    DdsOptions { engine: config.dds_engine.map(xrce_dds::Engine::from), eager_participant: config.eager_participant }
+    DdsOptions {
+        engine: config.dds_engine.map(xrce_dds::Engine::from),
+        eager_participant: config.eager_participant,
+        share_participants: !config.participant_names,
+    }
 }
 
 /// Starts a serial server on `lines`.

@@ -67,6 +67,9 @@ pub struct Config {
     /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
     /// ours): discovery with running DDS applications is done before the first client arrives.
     pub eager_participant: bool,
+    /// The DDS middleware gives each XRCE participant name its own DDS participant, which announces that
+    /// name, as eProsima's agent does (`--participant-names`; ours). Off: all share the default one.
+    pub participant_names: bool,
     /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE`, else Fast DDS where
     /// built, else rustdds.
     pub dds_engine: Option<DdsEngine>,
@@ -247,6 +250,8 @@ Arguments per transport (place them after the transport):
                                       [default: $XRCE_DDS_ENGINE, else fastdds where built, else rustdds]
       --eager-participant <on|off>    create the default DDS participant at start, before any client
                                       (dds middleware; ours) [default: on]
+      --participant-names <on|off>    a DDS participant per XRCE participant name, announcing it; off:
+                                      all share one, named xrce-rs (dds middleware; ours) [default: on]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)
@@ -339,6 +344,10 @@ struct CommonArgs {
     /// DDS applications (ROS 2 nodes) is done before the first client arrives (off: on first use).
     #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
     eager_participant: OnOff,
+    /// DDS middleware: one DDS participant per XRCE participant name, announcing that name (as eProsima's
+    /// agent); off: every XRCE participant shares the default DDS participant (named `xrce-rs`).
+    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
+    participant_names: OnOff,
 }
 
 #[derive(Debug, Args)]
@@ -484,6 +493,7 @@ impl Cli {
             ros_graph: common.ros_graph,
             dds_engine: common.dds_engine,
             eager_participant: common.eager_participant == OnOff::On,
+            participant_names: common.participant_names == OnOff::On,
         })
     }
 }
@@ -598,6 +608,7 @@ mod tests {
                 ros_graph: RosGraph::On,
                 dds_engine: None,
                 eager_participant: true,
+                participant_names: true,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -647,6 +658,8 @@ mod tests {
         assert!(ok("udp4 -p 1").eager_participant);
         assert!(!ok("udp4 -p 1 --eager-participant off").eager_participant);
         assert!(parse("udp4 -p 1 --eager-participant maybe").is_err());
+        assert!(ok("udp4 -p 1").participant_names);
+        assert!(!ok("udp4 -p 1 --participant-names off").participant_names);
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
         assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);

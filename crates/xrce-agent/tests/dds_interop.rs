@@ -26,11 +26,20 @@ fn peers() -> PathBuf {
 }
 
 fn python(script: &str, args: &[&str]) -> Command {
+    venv_python(&peers().join(script), args)
+}
+
+fn venv_python(script: &std::path::Path, args: &[&str]) -> Command {
     let dir = peers();
     let mut c = Command::new(dir.join("venv/bin/python"));
-    c.arg(dir.join(script)).args(args);
+    c.arg(script).args(args);
     c.env("CYCLONEDDS_URI", format!("file://{}", dir.join("cyclonedds-lo.xml").display()));
     c
+}
+
+/// A Python script of this crate's `tests/dds_peers`, run with the peers' Cyclone venv.
+fn own_python(script: &str, args: &[&str]) -> Command {
+    venv_python(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/dds_peers").join(script), args)
 }
 
 fn fastdds(args: &[&str]) -> Command {
@@ -266,4 +275,61 @@ fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
     println!("burst confirmed={confirmed} in {held_ms:.1} ms; Cyclone received indices {indices:?}");
     assert!(confirmed, "the agent acknowledged the burst");
     assert_eq!(indices, (1..=COUNT).collect::<Vec<_>>(), "every sample of the burst, in order");
+}
+
+/// The names of the DDS participants Cyclone discovers while two XRCE participants exist: one created by
+/// XML (`<rtps><name>`, as PX4) and one in binary with its name as the QoS profile reference (as micro-ROS).
+fn participant_names_seen(port: u16, extra: &[&str]) -> Vec<String> {
+    let _agent = AgentProcess::start_with(port, extra);
+    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
+    let mut out_buf = [0u8; BUF];
+    let mut in_buf = [0u8; BUF];
+    let mut session = Session::new(transport, 0xAAAA_DDDD);
+    session.create_session().expect("session");
+    let out = session.create_output_reliable_stream(&mut out_buf, HISTORY).expect("out stream");
+    session.create_input_reliable_stream(&mut in_buf, HISTORY).expect("in stream");
+    let reqs = [
+        session
+            .buffer_create_participant_xml(out, object_id(1, ObjectKind::Participant), 0, PARTICIPANT_XML, REPLACE)
+            .expect("xml participant"),
+        session
+            .buffer_create_participant_bin(
+                out,
+                object_id(2, ObjectKind::Participant),
+                0,
+                Some("uros_named_node"),
+                REPLACE,
+            )
+            .expect("binary participant"),
+    ];
+    let mut status = [0u8; 2];
+    assert!(session.run_session_until_all_status(3000, &reqs, &mut status).expect("run"), "create: {status:?}");
+    let (_, stdout) = finish(spawn(own_python("participant_names.py", &["2.5"])), "cyclone participants");
+    let _ = session.delete_session();
+    stdout.lines().filter_map(|l| l.strip_prefix("participant name=")).map(str::to_owned).collect()
+}
+
+/// As eProsima's agent, each XRCE participant name gets a DDS participant that announces it.
+#[test]
+#[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
+fn dds_participants_carry_the_xrce_participant_names() {
+    let names = participant_names_seen(18_905, &[]);
+    println!("participant names seen by Cyclone: {names:?}");
+    if std::env::var("XRCE_DDS_ENGINE").as_deref() == Ok("rustdds") {
+        // RustDDS 0.15.1 cannot announce a participant name: every XRCE participant shares one.
+        assert!(!names.iter().any(|n| n == "default_xrce_participant" || n == "uros_named_node"), "{names:?}");
+        return;
+    }
+    for expected in ["default_xrce_participant", "uros_named_node", "xrce-rs"] {
+        assert!(names.iter().any(|n| n == expected), "{expected} among {names:?}");
+    }
+}
+
+/// `--participant-names off`: every XRCE participant shares the default DDS participant, `xrce-rs`.
+#[test]
+#[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
+fn shared_participant_mode_announces_only_the_default_name() {
+    let names = participant_names_seen(18_906, &["--participant-names", "off"]);
+    println!("participant names seen by Cyclone: {names:?}");
+    assert!(!names.iter().any(|n| n == "default_xrce_participant" || n == "uros_named_node"), "{names:?}");
 }

@@ -574,6 +574,7 @@ fn px4_best_effort_and_replier_with_ros() {
         fmt_ms(first_rtt),
     );
     assert!(matched.is_some(), "the ROS node matched the PX4 writer");
+    println!("px4 best effort: samples written after the match and lost: {missing:?}");
     assert!(ratio >= MIN_BEST_EFFORT_DELIVERY, "best effort after the match: {arrived}/{expected}");
     check_first_contact(
         first_rtt.is_some_and(|r| r <= MAX_FIRST_CALL_RTT_MS),

@@ -52,9 +52,10 @@ pub struct BridgeConfig {
 pub struct ParticipantKey {
     /// DDS domain (255 already resolved).
     pub domain_id: u16,
-    /// Participant QoS profile: the profile name for references, a canonical form of the XML's QoS, or
-    /// empty for the default (binary representation).
-    pub profile: String,
+    /// The participant's name as the XRCE client gave it (binary `qos_profile_reference`, XML
+    /// `<rtps><name>`, or the reference); empty for the agent's default participant. Only the Fast DDS engine
+    /// announces it (RustDDS 0.15.1 cannot), so the RustDDS engine keys every participant with "".
+    pub name: String,
 }
 
 /// Creates and shares DDS participants. Cheap to keep for the agent's lifetime; participants live as long
@@ -99,13 +100,13 @@ impl DdsBridge {
         }
     }
 
-    /// The shared participant for `(domain, profile)`, created on first use. `xrce_domain_id` 255 means
+    /// The shared participant for `(domain, name)`, created on first use. `xrce_domain_id` 255 means
     /// the agent's domain.
-    pub fn participant(&self, xrce_domain_id: i32, profile: &str) -> Result<Participant, DdsError> {
-        let key = ParticipantKey { domain_id: self.resolve_domain(xrce_domain_id)?, profile: profile.to_owned() };
+    pub fn participant(&self, xrce_domain_id: i32, name: &str) -> Result<Participant, DdsError> {
+        let key = ParticipantKey { domain_id: self.resolve_domain(xrce_domain_id)?, name: name.to_owned() };
         let inner = self.participants.get_or_try_insert(key.clone(), || {
             let inner = ParticipantInner::new(key, &self.config)?;
-            tracing::info!(domain = inner.key.domain_id, profile = %inner.key.profile, "DDS participant created (RustDDS)");
+            tracing::info!(domain = inner.key.domain_id, name = %inner.key.name, "DDS participant created (RustDDS)");
             Ok::<_, DdsError>(Arc::new(inner))
         })?;
         Ok(Participant { inner })

@@ -125,15 +125,17 @@ impl DdsBridge {
         self.rust.resolve_domain(xrce_domain_id)
     }
 
-    /// The shared participant for `(domain, profile)`, created on first use. `xrce_domain_id` 255 means
-    /// the agent's domain.
-    pub fn participant(&self, xrce_domain_id: i32, profile: &str) -> Result<Participant, DdsError> {
+    /// The participant of domain `xrce_domain_id` (255: the agent's domain) named `name`, created on first
+    /// use and shared by every caller asking for the same pair; `""` is the agent's default participant
+    /// (named `xrce-rs`). RustDDS cannot announce a name: there every name gets the domain's default
+    /// participant.
+    pub fn participant(&self, xrce_domain_id: i32, name: &str) -> Result<Participant, DdsError> {
         match self.engine() {
-            Engine::RustDds => self.rust.participant(xrce_domain_id, profile).map(Participant::Rust),
+            Engine::RustDds => self.rust.participant(xrce_domain_id, "").map(Participant::Rust),
             #[cfg(feature = "fastdds")]
             Engine::FastDds => {
                 let domain = self.resolve_domain(xrce_domain_id)?;
-                self.fast.participant(domain, profile).map(Participant::Fast)
+                self.fast.participant(domain, name).map(Participant::Fast)
             }
             #[cfg(not(feature = "fastdds"))]
             Engine::FastDds => Err(DdsError::Create {
@@ -210,7 +212,7 @@ fn mixed() -> DdsError {
 }
 
 impl Participant {
-    /// Domain and profile this participant serves.
+    /// Domain and name this participant serves.
     pub fn key(&self) -> &ParticipantKey {
         each!(self, p => p.key())
     }
@@ -331,12 +333,22 @@ impl RawWriter {
     /// Remote readers of this writer's topic that the participant has discovered (QoS-compatible) and the
     /// writer has not matched yet; the agent holds a fresh writer's first samples while this is not 0
     /// (bounded), so that a volatile writer does not skip them for a reader it is about to match. Fast DDS
-    /// matches the readers its participant knows while it creates the writer, so there it is always 0.
+    /// matches the readers its own participant knows while it creates the writer; but a participant created
+    /// for a new name knows nothing yet, so there the readers counted are those the domain's default
+    /// participant (created at the agent's start, see `Participant` names) has discovered.
     pub fn unmatched_known_readers(&self) -> usize {
+        each!(self, w => w.unmatched_known_readers())
+    }
+
+    /// Remote participants the writer's participant has discovered but whose endpoints it has not received
+    /// yet: it may be about to learn of readers. Only a participant created for a new name (Fast DDS) has
+    /// any for long; the agent's gate also waits for these before a new datawriter's first samples. Always 0
+    /// on RustDDS, whose discovery the agent does not see.
+    pub fn participant_in_discovery(&self) -> usize {
         match self {
-            Self::Rust(w) => w.unmatched_known_readers(),
+            Self::Rust(_) => 0,
             #[cfg(feature = "fastdds")]
-            Self::Fast(_) => 0,
+            Self::Fast(w) => w.participant_in_discovery(),
         }
     }
 }

@@ -5,7 +5,7 @@
 //! waits for Fast DDS' 3 s periodic HEARTBEAT. Fast DDS itself has no such stall and carries the related
 //! sample identity rmw_fastrtps services need.
 //!
-//! Same sharing as the RustDDS engine: one Fast DDS participant per (domain, profile), topics per name,
+//! One Fast DDS participant per (domain, participant name), topics per name,
 //! writers shareable per (topic, QoS). Received samples are taken on Fast DDS' listener thread, straight into
 //! the reader's bounded [`SampleQueue`]; when the queue is full, taking stops (samples wait in Fast DDS'
 //! history, whose reliable flow control then holds the writer back) and the agent's draining resumes it.
@@ -23,8 +23,8 @@ use crate::{BridgeConfig, DdsError, ParticipantKey, SampleIdentity, SampleQueue}
 /// Samples moved from Fast DDS to a queue per lock of the queue.
 const BATCH: usize = 256;
 
-/// Name every Fast DDS participant of the agent announces.
-const PARTICIPANT_NAME: &str = "xrce-rs";
+/// Name the agent's default participant (XRCE participants without a name) announces.
+const DEFAULT_PARTICIPANT_NAME: &str = "xrce-rs";
 
 fn create_err(what: &'static str) -> impl FnOnce(sys::Error) -> DdsError {
     move |e| DdsError::Create { what, reason: e.to_string() }
@@ -47,24 +47,32 @@ impl Bridge {
         Self { config, participants: WeakMap::default() }
     }
 
-    pub(crate) fn participant(&self, domain_id: u16, profile: &str) -> Result<Participant, DdsError> {
-        let key = ParticipantKey { domain_id, profile: profile.to_owned() };
+    pub(crate) fn participant(&self, domain_id: u16, name: &str) -> Result<Participant, DdsError> {
+        let key = ParticipantKey { domain_id, name: name.to_owned() };
+        let default = match name {
+            "" => Weak::new(),
+            _ => self
+                .participants
+                .get(&ParticipantKey { domain_id, name: String::new() })
+                .map_or_else(Weak::new, |p| Arc::downgrade(&p)),
+        };
         let inner = self.participants.get_or_try_insert(key.clone(), || {
             let cfg = sys::ParticipantConfig {
                 domain: u32::from(domain_id),
-                name: PARTICIPANT_NAME.to_owned(),
+                name: if name.is_empty() { DEFAULT_PARTICIPANT_NAME.to_owned() } else { name.to_owned() },
                 whitelist: self.config.only_networks.iter().flatten().map(ToString::to_string).collect(),
                 // Fast DDS' default is 5 announcements 100 ms apart; a denser start lets peers that are
                 // already up discover us (and answer with their own SPDP) sooner.
                 announcements: (10, Duration::from_millis(50)),
             };
             let participant = sys::Participant::new(&cfg).map_err(create_err("participant"))?;
-            tracing::info!(domain = domain_id, profile = %profile, "DDS participant created (Fast DDS)");
+            tracing::info!(domain = domain_id, name = %cfg.name, "DDS participant created (Fast DDS)");
             Ok::<_, DdsError>(Arc::new(ParticipantInner {
                 topics: TopicTable::default(),
                 writers: WeakMap::default(),
                 participant,
                 key,
+                default,
             }))
         })?;
         Ok(Participant { inner })
@@ -80,6 +88,9 @@ struct ParticipantInner {
     writers: WeakMap<(String, EndpointQos), crate::engine::RawWriter>,
     participant: sys::Participant,
     key: ParticipantKey,
+    /// For a named participant, the domain's default participant if it existed when this one was created:
+    /// it has run longer, so it knows the remote readers a first-contact gate waits for.
+    default: Weak<ParticipantInner>,
 }
 
 /// A handle on a shared Fast DDS participant.
@@ -190,7 +201,7 @@ impl Participant {
             .participant
             .writer(&topic.topic, &to_fast(qos, false, topic.keyed))
             .map_err(create_err("datawriter"))?;
-        Ok(RawWriter { writer, _topic: Arc::clone(&topic.topic), _participant: Arc::clone(&self.inner) })
+        Ok(RawWriter { writer, _topic: Arc::clone(&topic.topic), participant: Arc::clone(&self.inner) })
     }
 
     pub(crate) fn create_reader_filtered(
@@ -244,7 +255,7 @@ pub struct RawWriter {
     writer: sys::Writer,
     // Drop order: the writer goes before its topic and participant.
     _topic: Arc<sys::Topic>,
-    _participant: Arc<ParticipantInner>,
+    participant: Arc<ParticipantInner>,
 }
 
 impl std::fmt::Debug for RawWriter {
@@ -274,6 +285,16 @@ impl RawWriter {
 
     pub(crate) fn guid(&self) -> [u8; 16] {
         self.writer.guid().v
+    }
+
+    pub(crate) fn participant_in_discovery(&self) -> usize {
+        self.participant.participant.in_discovery()
+    }
+
+    pub(crate) fn unmatched_known_readers(&self) -> usize {
+        let default = self.participant.default.upgrade();
+        let oracle = default.as_deref().unwrap_or(&self.participant);
+        self.writer.unmatched_known(&oracle.participant)
     }
 
     pub(crate) fn matched_readers(&self) -> usize {

@@ -38,6 +38,11 @@ impl<K: Eq + Hash, V> WeakMap<K, V> {
         Ok(v)
     }
 
+    /// The live value for `key`, if any.
+    pub(crate) fn get(&self, key: &K) -> Option<Arc<V>> {
+        lock(&self.0).get(key).and_then(Weak::upgrade)
+    }
+
     /// Values alive now.
     pub(crate) fn live(&self) -> usize {
         lock(&self.0).values().filter(|w| w.strong_count() > 0).count()

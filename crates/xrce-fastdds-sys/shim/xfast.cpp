@@ -3,8 +3,10 @@
 // because unwinding into Rust is undefined behaviour.
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
@@ -17,8 +19,10 @@
 
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -26,6 +30,10 @@ using namespace eprosima::fastdds::dds;
 using eprosima::fastrtps::Duration_t;
 using eprosima::fastrtps::rtps::GUID_t;
 using eprosima::fastrtps::rtps::InstanceHandle_t;
+using eprosima::fastrtps::rtps::GuidPrefix_t;
+using eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+using eprosima::fastrtps::rtps::ReaderDiscoveryInfo;
+using eprosima::fastrtps::rtps::WriterDiscoveryInfo;
 using eprosima::fastrtps::rtps::SampleIdentity;
 using eprosima::fastrtps::rtps::SequenceNumber_t;
 using eprosima::fastrtps::rtps::SerializedPayload_t;
@@ -152,6 +160,63 @@ struct CbListener : public DataReaderListener {
     }
 };
 
+// What a participant has discovered, for the agent's first-contact gate (see xf_writer_unmatched_known): the
+// remote readers, which a writer of another participant of the agent may not have matched yet, and the remote
+// participants whose endpoints have not arrived yet (their discovery, SEDP, still under way).
+struct KnownReader {
+    std::string topic;
+    std::string type;
+    bool reliable;
+    bool transient_local;
+};
+struct Discovery : public DomainParticipantListener {
+    std::mutex m;
+    std::map<GUID_t, KnownReader> readers;
+    std::set<GuidPrefix_t> awaiting_endpoints;
+    void on_participant_discovery(DomainParticipant* self, ParticipantDiscoveryInfo&& info) override {
+        std::lock_guard<std::mutex> g(m);
+        const GuidPrefix_t& p = info.info.m_guid.guidPrefix;
+        if (info.status == ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
+            // The agent's other participants (same host and process bytes of the prefix) are not awaited.
+            const bool same_process = std::memcmp(p.value, self->guid().guidPrefix.value, 8) == 0;
+            if (!same_process) awaiting_endpoints.insert(p);
+        } else if (info.status != ParticipantDiscoveryInfo::CHANGED_QOS_PARTICIPANT) {
+            awaiting_endpoints.erase(p);
+        }
+    }
+    void on_publisher_discovery(DomainParticipant*, WriterDiscoveryInfo&& info) override {
+        std::lock_guard<std::mutex> g(m);
+        awaiting_endpoints.erase(info.info.guid().guidPrefix);
+    }
+    void on_subscriber_discovery(DomainParticipant*, ReaderDiscoveryInfo&& info) override {
+        std::lock_guard<std::mutex> g(m);
+        const auto& r = info.info;
+        awaiting_endpoints.erase(r.guid().guidPrefix);
+        switch (info.status) {
+            case ReaderDiscoveryInfo::DISCOVERED_READER:
+            case ReaderDiscoveryInfo::CHANGED_QOS_READER:
+                readers[r.guid()] = KnownReader{r.topicName().to_string(), r.typeName().to_string(),
+                                                r.m_qos.m_reliability.kind == RELIABLE_RELIABILITY_QOS,
+                                                r.m_qos.m_durability.kind != VOLATILE_DURABILITY_QOS};
+                break;
+            default:
+                readers.erase(r.guid());
+        }
+    }
+};
+
+// The readers a writer has matched (Fast DDS 2.9 does not implement get_matched_subscriptions).
+struct MatchListener : public DataWriterListener {
+    std::mutex m;
+    std::set<GUID_t> matched;
+    void on_publication_matched(DataWriter*, const PublicationMatchedStatus& s) override {
+        GUID_t g = eprosima::fastrtps::rtps::iHandle2GUID(s.last_subscription_handle);
+        std::lock_guard<std::mutex> l(m);
+        if (s.current_count_change > 0) matched.insert(g);
+        if (s.current_count_change < 0) matched.erase(g);
+    }
+};
+
 template <class Q> void apply_common(Q& q, const xf_qos& x) {
     q.reliability().kind = x.reliable ? RELIABLE_RELIABILITY_QOS : BEST_EFFORT_RELIABILITY_QOS;
     q.reliability().max_blocking_time = ms(x.max_blocking_ms);
@@ -170,8 +235,8 @@ template <class Q> void apply_common(Q& q, const xf_qos& x) {
 
 }  // namespace
 
-struct xf_participant { DomainParticipant* p; };
-struct xf_writer { DataWriter* w; Publisher* pub; };
+struct xf_participant { DomainParticipant* p; Discovery discovery; };
+struct xf_writer { DataWriter* w; Publisher* pub; MatchListener listener; xf_participant* owner; };
 struct xf_reader { DataReader* r; Subscriber* sub; CbListener listener; RawData scratch; };
 
 #define XF_TRY try {
@@ -193,9 +258,12 @@ xf_participant* xf_participant_new(const xf_participant_cfg* c) {
     auto& ann = q.wire_protocol().builtin.discovery_config.initial_announcements;
     ann.count = c->announcements;
     ann.period = ms(c->announcement_period_ms);
-    DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(c->domain, q);
-    if (!p) return nullptr;
-    return new xf_participant{p};
+    // The listener lives in the handle, so the handle exists first; discovery callbacks need no status mask.
+    auto* h = new xf_participant{nullptr, {}};
+    h->p = DomainParticipantFactory::get_instance()->create_participant(c->domain, q, &h->discovery,
+                                                                       StatusMask::none());
+    if (!h->p) { delete h; return nullptr; }
+    return h;
     XF_CATCH(nullptr)
 }
 
@@ -238,9 +306,10 @@ xf_writer* xf_writer_new(xf_participant* p, Topic* t, const xf_qos* qos, const c
     DataWriterQos q = DATAWRITER_QOS_DEFAULT;
     apply_common(q, *qos);
     q.reliable_writer_qos().times.heartbeatPeriod = ms(qos->heartbeat_ms);
-    DataWriter* w = pub->create_datawriter(t, q);
-    if (!w) { p->p->delete_publisher(pub); return nullptr; }
-    return new xf_writer{w, pub};
+    auto* w = new xf_writer{nullptr, pub, {}, p};
+    w->w = pub->create_datawriter(t, q, &w->listener, StatusMask::publication_matched());
+    if (!w->w) { p->p->delete_publisher(pub); delete w; return nullptr; }
+    return w;
     XF_CATCH(nullptr)
 }
 
@@ -257,6 +326,45 @@ int32_t xf_writer_matched(xf_writer* w) {
     PublicationMatchedStatus s;
     if (w->w->get_publication_matched_status(s) != ReturnCode_t::RETCODE_OK) return -1;
     return s.current_count;
+    XF_CATCH(-2)
+}
+
+// Readers `oracle` has discovered on the writer's topic and type, with a QoS the writer can serve, that the
+// writer has not matched yet (< 0: error). `oracle` may be the writer's own participant or another of the
+// process (one that has been running longer knows more).
+int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
+    XF_TRY
+    std::set<GUID_t> matched;
+    {
+        std::lock_guard<std::mutex> g(w->listener.m);
+        matched = w->listener.matched;
+    }
+    const std::string topic = w->w->get_topic()->get_name();
+    const std::string type = w->w->get_topic()->get_type_name();
+    const DataWriterQos q = w->w->get_qos();
+    const bool reliable = q.reliability().kind == RELIABLE_RELIABILITY_QOS;
+    const bool transient_local = q.durability().kind != VOLATILE_DURABILITY_QOS;
+    const auto own = w->w->guid().guidPrefix;
+    int32_t n = 0;
+    std::lock_guard<std::mutex> g(oracle->discovery.m);
+    for (const auto& kv : oracle->discovery.readers) {
+        const GUID_t& guid = kv.first;
+        const KnownReader& r = kv.second;
+        if (r.topic != topic || r.type != type) continue;
+        if ((r.reliable && !reliable) || (r.transient_local && !transient_local)) continue;
+        if (guid.guidPrefix == own || matched.count(guid) != 0) continue;
+        ++n;
+    }
+    return n;
+    XF_CATCH(-2)
+}
+
+// Remote participants `p` has discovered but has no endpoint of yet: its endpoint discovery with them is still
+// under way, so it may be about to learn of readers a new writer should not miss.
+int32_t xf_participant_in_discovery(xf_participant* p) {
+    XF_TRY
+    std::lock_guard<std::mutex> g(p->discovery.m);
+    return static_cast<int32_t>(p->discovery.awaiting_endpoints.size());
     XF_CATCH(-2)
 }
 

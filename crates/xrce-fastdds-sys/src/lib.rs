@@ -216,6 +216,13 @@ impl Participant {
         Ok(Participant(Arc::new(PInner(p))))
     }
 
+    /// Remote participants this one has discovered but has no endpoint of yet (0 on error): its endpoint
+    /// discovery with them is still under way.
+    pub fn in_discovery(&self) -> usize {
+        // SAFETY: live participant; the shim locks its discovery table.
+        usize::try_from(unsafe { ffi::xf_participant_in_discovery(self.0 .0) }).unwrap_or(0)
+    }
+
     /// The participant's GUID.
     pub fn guid(&self) -> Guid {
         let mut g = Guid::default();
@@ -314,6 +321,16 @@ impl Writer {
     pub fn matched(&self) -> i32 {
         // SAFETY: live writer; the status call is synchronized by Fast DDS.
         unsafe { ffi::xf_writer_matched(self.w) }
+    }
+
+    /// Readers `oracle` has discovered on this writer's topic and type, with a QoS the writer can serve,
+    /// that the writer has not matched yet (0 on error). `oracle` may be another participant of the process:
+    /// one that has run longer has discovered more.
+    pub fn unmatched_known(&self, oracle: &Participant) -> usize {
+        // SAFETY: live writer; `oracle` keeps its participant alive for the call; the shim locks the
+        // participant's discovery table and the writer's matched set.
+        let n = unsafe { ffi::xf_writer_unmatched_known(self.w, oracle.0 .0) };
+        usize::try_from(n).unwrap_or(0)
     }
 
     /// Writes a CDR body (no encapsulation header; sent as CDR_LE); returns the sample's identity.

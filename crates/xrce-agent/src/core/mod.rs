@@ -255,6 +255,7 @@ where
             self.heartbeat_tick(now);
         }
         self.fire_probes(now);
+        self.middleware.poll(now);
         self.pump_needed = true;
         self.pump_and_retry(now);
     }
@@ -262,6 +263,7 @@ where
     /// Polls the readers of active read tasks; call it when an asynchronous middleware's waker fired.
     pub fn poll_middleware(&mut self, now: Instant) {
         self.stats.middleware_polls = self.stats.middleware_polls.saturating_add(1);
+        self.middleware.poll(now);
         self.pump_needed = true;
         self.pump_and_retry(now);
     }

@@ -145,6 +145,9 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn recycle_sample(&mut self, sample: Sample) {
         self.inner.recycle_sample(sample);
     }
+    fn poll(&mut self, now: std::time::Instant) {
+        self.inner.poll(now);
+    }
     fn set_waker(&mut self, waker: Waker) {
         self.inner.set_waker(waker);
     }

@@ -17,6 +17,7 @@ pub mod ros_graph;
 
 use std::fmt;
 use std::sync::Arc;
+use std::time::Instant;
 
 use xrce_proto::{ClientKey, Endianness, EntityVariant, ObjectId, ObjectKind, RequestId, SampleIdentity};
 
@@ -207,6 +208,10 @@ pub trait Middleware {
     /// its buffer can carry the next one (CED: no allocation per sample once warm). Optional.
     fn recycle_sample(&mut self, _sample: Sample) {}
 
+    /// Runs the middleware's own pending work (the DDS middleware: best-effort samples held at a
+    /// first-contact gate); the core calls it when the waker fired and on its timers. Default: nothing.
+    fn poll(&mut self, _now: Instant) {}
+
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
 
@@ -265,6 +270,9 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     }
     fn recycle_sample(&mut self, sample: Sample) {
         (**self).recycle_sample(sample);
+    }
+    fn poll(&mut self, now: Instant) {
+        (**self).poll(now);
     }
     fn set_waker(&mut self, waker: Waker) {
         (**self).set_waker(waker);
@@ -325,7 +333,8 @@ impl MiddlewareKind {
                 Ok(Box::new(
                     dds::Dds::with_config(profiles, config)
                         .with_ros_graph(ros_graph)
-                        .with_eager_participant(options.eager_participant),
+                        .with_eager_participant(options.eager_participant)
+                        .with_shared_participants(options.share_participants),
                 ))
             }
         }
@@ -339,4 +348,7 @@ pub struct DdsOptions {
     pub engine: Option<xrce_dds::Engine>,
     /// Create the default domain's DDS participant at start (`--eager-participant`).
     pub eager_participant: bool,
+    /// Every XRCE participant shares the domain's default DDS participant instead of one DDS participant
+    /// per participant name (`--participant-names off`).
+    pub share_participants: bool,
 }

@@ -27,11 +27,21 @@ impl AgentProcess {
         Self::start_bin(Path::new(env!("CARGO_BIN_EXE_xrce-agent")), port)
     }
 
+    /// This crate's agent binary with more options after the usual ones.
+    pub fn start_with(port: u16, extra: &[&str]) -> Self {
+        Self::start_bin_with(Path::new(env!("CARGO_BIN_EXE_xrce-agent")), port, extra)
+    }
+
     /// The agent binary `bin` (another build, or eProsima's `MicroXRCEAgent`).
     pub fn start_bin(bin: &Path, port: u16) -> Self {
+        Self::start_bin_with(bin, port, &[])
+    }
+
+    fn start_bin_with(bin: &Path, port: u16, extra: &[&str]) -> Self {
         require_loopback_namespace();
         let child = Command::new(bin)
             .args(["udp4", "-p", &port.to_string(), "-v", "3"])
+            .args(extra)
             .stdout(Stdio::null())
             .spawn()
             .expect("agent starts");

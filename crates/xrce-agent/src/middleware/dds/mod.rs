@@ -1,23 +1,24 @@
 //! The `dds` middleware (the default of `-m`; `-m rtps` maps here too): XRCE entities become entities of a
-//! real DDS domain, through the untyped bridge of the `xrce-dds` crate (pure-Rust RustDDS).
+//! real DDS domain, through the untyped bridge of the `xrce-dds` crate (Fast DDS where built, else RustDDS).
 //!
-//! * **Participants are shared.** An XRCE participant is a handle on the bridge's DDS participant for its
-//!   domain (255 → `XRCE_DOMAIN_ID_OVERRIDE`, as eProsima). No participant QoS is modelled, so every XRCE
-//!   participant of a domain shares one DDS participant, whatever its name or profile: 1,000 clients cost
-//!   1,000 small map entries and one RustDDS participant, where eProsima's agent creates one Fast DDS
-//!   participant (21 MiB, several threads) per client.
+//! * **Participants by name.** An XRCE participant is a handle on the bridge's DDS participant for its
+//!   domain (255 → `XRCE_DOMAIN_ID_OVERRIDE`, as eProsima) and name (binary `qos_profile_reference`, as
+//!   micro-ROS sends its node name; XML `<rtps><name>`, as PX4; or the reference): as in eProsima's agent,
+//!   the DDS participant announces that name. XRCE participants with the same name share one DDS
+//!   participant; unnamed ones share the domain's default participant, `xrce-rs`. With
+//!   [`Dds::with_shared_participants`] (`--participant-names off`) all of a domain share the default one:
+//!   1,000 clients then cost 1,000 small map entries and one DDS participant instead of 1,000 (Fast DDS:
+//!   ~5 MiB and 6 threads each; eProsima's agent: 21 MiB). RustDDS 0.15.1 cannot announce a name, so
+//!   there they always share. Only the name is modelled of the participant QoS.
 //! * **Topics** are raw: name, type name (a runtime string) and key kind, from XML (`<kind>WITH_KEY`), a
 //!   `-r` reference or the binary representation (never keyed, as eProsima).
 //! * **Publishers and subscribers** have no DDS counterpart of their own: the bridge gives every
 //!   participant one publisher and one subscriber, and endpoints carry their full QoS, with the partitions
 //!   of their XRCE publisher or subscriber (applied by the Fast DDS engine; RustDDS 0.15.1 has no PARTITION
 //!   policy: logged).
-//! * **Names**: XRCE participants share one DDS participant per domain on both engines, so the XRCE
-//!   participant's name reaches DDS through the ROS 2 graph ([`super::ros_graph`]): each named XRCE
-//!   participant is a ROS 2 node, listed in the `ros_discovery_info` sample of the shared DDS participant
-//!   (what ROS 2 reads since Foxy; it ignores participant names). A DDS participant per name would cost a
-//!   participant per client (Fast DDS ~5 MiB and 6 threads, RustDDS ~9 MiB) and lose what the eager shared
-//!   participant gives at first contact. RustDDS 0.15.1 cannot announce a participant name at all.
+//! * **ROS 2 nodes**: ROS 2 reads node names from `ros_discovery_info`, not from participant names: each
+//!   named XRCE participant is also a ROS 2 node there ([`super::ros_graph`]), on both engines and in both
+//!   participant modes.
 //! * **History depth 0** (eProsima's C client leaves the depth out then) means the DDS default, keep-last 1.
 //! * **Datawriters and datareaders** get the QoS of their description: reliability, durability, history
 //!   kind and depth and resource limits from XML/references (Fast DDS defaults for what is left out), the
@@ -45,8 +46,8 @@
 //!   read task delivers on a reliable stream is *pinned* ([`Middleware::set_reader_reliable`]); it stays
 //!   pinned between read tasks (a subscriber reading with a small `max_samples` must not lose what arrives
 //!   meanwhile) until a best-effort read, its deletion, or the core unpinning a dead client's readers. For
-//!   a datawriter, [`Middleware::can_write`] is false while a pinned reader of the same topic and DDS
-//!   participant has [`RELIABLE_BACKLOG`] samples or more (at most half its queue) not yet taken by the core:
+//!   a datawriter, [`Middleware::can_write`] is false while a pinned reader of the same topic and domain (in
+//!   any of the agent's DDS participants) has [`RELIABLE_BACKLOG`] samples or more (at most half its queue) not yet taken by the core:
 //!   those queued, plus those of this writer still in flight towards the queue (last sequence number
 //!   written minus the last one the queue received; ignored once the queue has received nothing from the
 //!   writer for [`IN_FLIGHT_STALL`], so a reader that never matches cannot stall the writer forever). The
@@ -68,7 +69,14 @@
 //!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
 //!   running are known before the first client arrives. A requester also holds its first request while no
 //!   replier has matched at all ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer
-//!   matches the readers its participant knows while it is created, so only that last condition holds it.
+//!   matches the readers its participant knows while it is created; but a participant created for a new
+//!   name knows nothing yet (its endpoint discovery with a ROS node takes 100–300 ms: Fast DDS' 70 ms
+//!   initial ACKNACK delay, then the peer's ~93 ms NACK response delay), so there the readers counted are
+//!   those the default participant has discovered, and the gate also waits while the writer's participant
+//!   has discovered remote participants whose endpoints have not arrived yet (a ROS node started with the
+//!   client is not known to the default participant either). Best-effort writes (PX4) are not held by the
+//!   core: the middleware keeps them at the gate ([`HELD_AT_GATE`]) and replays them once it opens, at
+//!   twice the rate they were written (a burst would overflow a keep-last reader's history).
 //! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
 //!   keeps a 64-bit digest of it (std's `DefaultHasher`, fixed keys), not the description itself, to stay small.
 
@@ -92,7 +100,7 @@ use crate::profile::{self};
 mod gate;
 mod spec;
 
-use gate::GateTimer;
+use gate::{GateTimer, HeldSamples};
 use spec::{spec_from_binary, spec_from_description, spec_from_profile, Spec, TopicSel};
 
 /// How many times a reliable write is retried when the DDS writer's send window stays full for its
@@ -117,12 +125,12 @@ pub const TAKE_BATCH: usize = 64;
 
 /// Longest a new datawriter or requester holds its first writes until its DDS writer has matched the
 /// remote readers already discovered on its topic (see the module documentation). Matching a known reader
-/// takes RustDDS 20–35 ms (measured with a ROS 2 node); 300 ms is ten times that, so it only runs out when
-/// a known reader will never match (an incompatibility our check does not see, a reader gone meanwhile,
-/// a status event the engine dropped), and it stays well below the 1 s micro-ROS waits by default for a
-/// reliable publish to be confirmed, so a held client never times out. After it, writes go through as
-/// before the gate existed.
-pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(300);
+/// takes RustDDS 20–35 ms, and a Fast DDS participant created for a new name 100–330 ms (measured with a
+/// ROS 2 node, 10 runs); 500 ms runs out only when a known reader will never match (an incompatibility our
+/// check does not see, a reader gone meanwhile, a status event the engine dropped), and it stays below
+/// the 1 s micro-ROS waits by default for a reliable publish to be confirmed, so a held client never times
+/// out. After it, writes go through as before the gate existed.
+pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(500);
 
 /// The same bound for a new requester, which also holds its first request while no replier has matched at
 /// all: a request written then is lost for certain (volatile), and applications call a service right after
@@ -130,13 +138,20 @@ pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(300);
 /// our participant take up to a few hundred ms). Still below micro-ROS' 1 s confirmation wait.
 pub const FIRST_CONTACT_GATE_REQUESTER: Duration = Duration::from_millis(600);
 
+/// Best-effort samples a datawriter at its first-contact gate keeps for when it opens ([`HeldSamples`]);
+/// beyond, the oldest go. 256 is a 500 ms gate at 500 Hz, more than PX4 publishes on one topic.
+pub const HELD_AT_GATE: usize = 256;
+
+/// The same bound in payload bytes, per datawriter.
+pub const HELD_AT_GATE_BYTES: usize = 64 * 1024;
+
 /// How often the gate timer wakes the core to retry a write held at a gate (only while one is held): the
 /// added latency once the writer has matched, at the cost of a few hundred wake-ups at most per gate.
 pub const GATE_RECHECK: Duration = Duration::from_millis(2);
 
-/// A topic as the DDS participant it lives in sees it: participant GUID and topic name. A local writer
-/// reaches exactly the local readers with the same one.
-type TopicId = ([u8; 16], String);
+/// A topic as the agent's DDS participants see it: domain and topic name. A local writer reaches the local
+/// readers of the same topic in every participant of the agent in that domain (participants per name).
+type TopicId = (u16, String);
 
 /// What a datawriter has written: for the in-flight part of a reader's backlog.
 #[derive(Debug, Clone, Copy)]
@@ -244,10 +259,15 @@ pub struct Dds {
     graph: Option<RosGraph>,
     /// Datawriters and requesters still at their first-contact gate, with its deadline.
     gates: HashMap<EntityRef, Instant>,
+    /// Best-effort samples written to a datawriter at its gate, replayed once it opens.
+    held: HashMap<EntityRef, HeldSamples>,
     gate_timer: GateTimer,
     /// The default domain's DDS participant, created with the middleware when asked
     /// ([`Dds::with_eager_participant`]).
     eager: Option<Participant>,
+    /// Every XRCE participant of a domain shares the default DDS participant, whatever its name
+    /// ([`Dds::with_shared_participants`]).
+    share_participants: bool,
 }
 
 impl std::fmt::Debug for Dds {
@@ -336,9 +356,18 @@ impl Dds {
             pinned: HashSet::new(),
             graph: RosGraph::new(RosGraphMode::default()),
             gates: HashMap::new(),
+            held: HashMap::new(),
             gate_timer: GateTimer::default(),
             eager: None,
+            share_participants: false,
         }
+    }
+
+    /// With `share`, every XRCE participant of a domain uses the domain's default DDS participant (named
+    /// `xrce-rs`) instead of one DDS participant per XRCE participant name (see the module documentation).
+    pub fn with_shared_participants(mut self, share: bool) -> Self {
+        self.share_participants = share;
+        self
     }
 
     /// Creates now the DDS participant an XRCE participant of the agent's domain (255) without profile
@@ -359,12 +388,65 @@ impl Dds {
         self
     }
 
+    /// Publishes through the DDS writer, retrying while its history is full (see [`WRITE_RETRIES`]).
+    fn write_now(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
+        let node = self.entities.get_mut(&writer).ok_or_else(|| unknown(writer))?;
+        let Handle::Writer(state) = &mut node.handle else {
+            return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
+        };
+        let WriterState { writer: w, written, .. } = &mut **state;
+        let mut tries = 0;
+        loop {
+            match w.write(data) {
+                Ok(id) => {
+                    let seq = id.sequence_number;
+                    match written {
+                        Some(wr) => wr.last_seq = wr.last_seq.max(seq),
+                        None => *written = Some(Written { first_seq: seq, first_at: Instant::now(), last_seq: seq }),
+                    }
+                    return Ok(());
+                }
+                Err(DdsError::Resources(m)) if tries < WRITE_RETRIES => {
+                    tries += 1;
+                    tracing::debug!(?writer, "DDS write blocked ({m}), retrying");
+                }
+                Err(e) => {
+                    tracing::warn!(?writer, "DDS write failed, sample dropped: {e}");
+                    return Err(dds_error(e));
+                }
+            }
+        }
+    }
+
+    /// Writes the best-effort samples held at `writer`'s (open) gate that are due by `now` (a failure is
+    /// logged in [`Self::write_now`] and the rest still go); keeps the gate timer running for the others.
+    fn replay_held(&mut self, writer: EntityRef, now: Instant) {
+        let Some(mut held) = self.held.remove(&writer) else { return };
+        while let Some(sample) = held.pop_due(now) {
+            let _ = self.write_now(writer, &sample);
+        }
+        if held.is_empty() {
+            if held.dropped() > 0 {
+                tracing::warn!(
+                    ?writer,
+                    dropped = held.dropped(),
+                    "first-contact gate: best-effort samples dropped (bound reached)"
+                );
+            }
+            return;
+        }
+        if let Some(due) = held.next_due() {
+            self.gate_timer.arm(due, self.waker.as_ref());
+        }
+        self.held.insert(writer, held);
+    }
+
     /// Whether `entity` (a datawriter or requester) may write as far as its first-contact gate goes; opens
     /// (forgets) the gate once its DDS writer matched every reader known on its topic, or at its deadline.
     fn gate_open(&mut self, entity: EntityRef) -> bool {
         let Some(&deadline) = self.gates.get(&entity) else { return true };
         let unmatched = match self.entities.get(&entity).map(|n| &n.handle) {
-            Some(Handle::Writer(w)) => w.writer.unmatched_known_readers(),
+            Some(Handle::Writer(w)) => w.writer.unmatched_known_readers() + w.writer.participant_in_discovery(),
             Some(Handle::Requester(r)) => r.unmatched_known_repliers() + usize::from(r.matched_repliers() == 0),
             _ => 0,
         };
@@ -384,7 +466,7 @@ impl Dds {
             tracing::debug!(?entity, "first-contact gate open: every known reader matched");
         }
         self.gates.remove(&entity);
-        if self.gates.is_empty() {
+        if self.gates.is_empty() && self.held.is_empty() {
             self.gate_timer.disarm();
         }
         true
@@ -561,9 +643,12 @@ impl Dds {
         let entity = creation.entity;
         let parent = creation.parent;
         Ok(match (entity.kind(), spec) {
-            (ObjectKind::Participant, Spec::Participant { domain, .. }) => {
-                // Shared: one DDS participant per domain (no participant QoS is modelled).
-                Handle::Participant(self.bridge.participant(i32::from(*domain), "").map_err(dds_error)?)
+            (ObjectKind::Participant, Spec::Participant { domain, name }) => {
+                let name = match name {
+                    Some(n) if !self.share_participants => n.as_str(),
+                    _ => "",
+                };
+                Handle::Participant(self.bridge.participant(i32::from(*domain), name).map_err(dds_error)?)
             }
             (ObjectKind::Topic, Spec::Topic { name, type_name, keyed }) => {
                 let (_, p) = self.participant_of(parent)?;
@@ -587,7 +672,7 @@ impl Dds {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let qos = &self.with_group_partitions(parent, qos);
-                let topic = (p.guid(), t.name());
+                let topic = (p.key().domain_id, t.name());
                 Handle::Writer(Box::new(WriterState {
                     writer: p.shared_writer(&t, qos).map_err(dds_error)?,
                     topic,
@@ -598,7 +683,7 @@ impl Dds {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let qos = &self.with_group_partitions(parent, qos);
-                let topic = (p.guid(), t.name());
+                let topic = (p.key().domain_id, t.name());
                 Handle::Reader(Box::new(ReaderState { reader: p.create_reader(&t, qos).map_err(dds_error)?, topic }))
             }
             (ObjectKind::Requester, Spec::Service { desc, qos }) => {
@@ -656,6 +741,7 @@ impl Middleware for Dds {
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
         self.pinned.remove(&entity);
         self.gates.remove(&entity);
+        self.held.remove(&entity);
         let node = self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
         self.graph_unlink(entity, &node);
         self.owned.removed(entity.client);
@@ -668,6 +754,7 @@ impl Middleware for Dds {
         }
         self.pinned.retain(|e| e.client != client);
         self.gates.retain(|e, _| e.client != client);
+        self.held.retain(|e, _| e.client != client);
         if let Some(g) = &self.graph {
             // A node goes with its endpoints.
             for (e, node) in self.entities.iter().filter(|(e, _)| e.client == client) {
@@ -680,30 +767,27 @@ impl Middleware for Dds {
     }
 
     fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
-        let node = self.entities.get_mut(&writer).ok_or_else(|| unknown(writer))?;
-        let Handle::Writer(state) = &mut node.handle else {
-            return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
-        };
-        let WriterState { writer: w, written, .. } = &mut **state;
-        let mut tries = 0;
-        loop {
-            match w.write(data) {
-                Ok(id) => {
-                    let seq = id.sequence_number;
-                    match written {
-                        Some(wr) => wr.last_seq = wr.last_seq.max(seq),
-                        None => *written = Some(Written { first_seq: seq, first_at: Instant::now(), last_seq: seq }),
-                    }
-                    return Ok(());
-                }
-                Err(DdsError::Resources(m)) if tries < WRITE_RETRIES => {
-                    tries += 1;
-                    tracing::debug!(?writer, "DDS write blocked ({m}), retrying");
-                }
-                Err(e) => {
-                    tracing::warn!(?writer, "DDS write failed, sample dropped: {e}");
-                    return Err(dds_error(e));
-                }
+        // Only best-effort writes reach a closed gate: the core holds reliable ones (`can_write`).
+        let closed = self.gates.contains_key(&writer) && !self.gate_open(writer);
+        if closed || self.held.contains_key(&writer) {
+            let now = Instant::now();
+            self.held.entry(writer).or_default().push(now, data);
+            if !closed {
+                self.replay_held(writer, now);
+            }
+            return Ok(());
+        }
+        self.write_now(writer, data)
+    }
+
+    fn poll(&mut self, now: Instant) {
+        if self.held.is_empty() {
+            return;
+        }
+        let writers: Vec<EntityRef> = self.held.keys().copied().collect();
+        for w in writers {
+            if self.gate_open(w) {
+                self.replay_held(w, now);
             }
         }
     }
