@@ -100,6 +100,12 @@ impl DdsBridge {
         }
     }
 
+    /// The live participant for `(domain, name)`, if any.
+    pub fn existing_participant(&self, xrce_domain_id: i32, name: &str) -> Option<Participant> {
+        let key = ParticipantKey { domain_id: self.resolve_domain(xrce_domain_id).ok()?, name: name.to_owned() };
+        self.participants.get(&key).map(|inner| Participant { inner })
+    }
+
     /// The shared participant for `(domain, name)`, created on first use. `xrce_domain_id` 255 means
     /// the agent's domain.
     pub fn participant(&self, xrce_domain_id: i32, name: &str) -> Result<Participant, DdsError> {

@@ -145,6 +145,21 @@ impl DdsBridge {
         }
     }
 
+    /// The live participant of domain `xrce_domain_id` named `name` (as [`DdsBridge::participant`] would
+    /// return it), without creating one.
+    pub fn existing_participant(&self, xrce_domain_id: i32, name: &str) -> Option<Participant> {
+        match self.engine() {
+            Engine::RustDds => self.rust.existing_participant(xrce_domain_id, "").map(Participant::Rust),
+            #[cfg(feature = "fastdds")]
+            Engine::FastDds => {
+                let domain = self.resolve_domain(xrce_domain_id).ok()?;
+                self.fast.existing_participant(domain, name).map(Participant::Fast)
+            }
+            #[cfg(not(feature = "fastdds"))]
+            Engine::FastDds => None,
+        }
+    }
+
     /// DDS participants alive now.
     pub fn participant_count(&self) -> usize {
         #[cfg(feature = "fastdds")]

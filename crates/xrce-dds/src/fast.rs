@@ -78,6 +78,10 @@ impl Bridge {
         Ok(Participant { inner })
     }
 
+    pub(crate) fn existing_participant(&self, domain_id: u16, name: &str) -> Option<Participant> {
+        self.participants.get(&ParticipantKey { domain_id, name: name.to_owned() }).map(|inner| Participant { inner })
+    }
+
     pub(crate) fn participant_count(&self) -> usize {
         self.participants.live()
     }

@@ -138,6 +138,11 @@ pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(500);
 /// our participant take up to a few hundred ms). Still below micro-ROS' 1 s confirmation wait.
 pub const FIRST_CONTACT_GATE_REQUESTER: Duration = Duration::from_millis(600);
 
+/// DDS participants the agent creates for XRCE participant names (~1.7 MiB and 5 threads each on Fast DDS);
+/// XRCE participants named after that share the default participant, with a warning. 128 named nodes is more
+/// than one agent serves in the deployments we know (PX4: one; micro-ROS: a few per board).
+pub const MAX_NAMED_PARTICIPANTS: usize = 128;
+
 /// Best-effort samples a datawriter at its first-contact gate keeps for when it opens ([`HeldSamples`]);
 /// beyond, the oldest go. 256 is a 500 ms gate at 500 Hz, more than PX4 publishes on one topic.
 pub const HELD_AT_GATE: usize = 256;
@@ -268,6 +273,8 @@ pub struct Dds {
     /// Every XRCE participant of a domain shares the default DDS participant, whatever its name
     /// ([`Dds::with_shared_participants`]).
     share_participants: bool,
+    /// Participants created for names at most ([`MAX_NAMED_PARTICIPANTS`] by default).
+    named_limit: usize,
 }
 
 impl std::fmt::Debug for Dds {
@@ -360,7 +367,15 @@ impl Dds {
             gate_timer: GateTimer::default(),
             eager: None,
             share_participants: false,
+            named_limit: MAX_NAMED_PARTICIPANTS,
         }
+    }
+
+    /// How many DDS participants the middleware may create for XRCE participant names (live participants of
+    /// the bridge counted); past it, named XRCE participants share the default one, with a warning.
+    pub fn with_named_participant_limit(mut self, limit: usize) -> Self {
+        self.named_limit = limit;
+        self
     }
 
     /// With `share`, every XRCE participant of a domain uses the domain's default DDS participant (named
@@ -644,11 +659,24 @@ impl Dds {
         let parent = creation.parent;
         Ok(match (entity.kind(), spec) {
             (ObjectKind::Participant, Spec::Participant { domain, name }) => {
-                let name = match name {
+                let domain = i32::from(*domain);
+                let mut name = match name {
                     Some(n) if !self.share_participants => n.as_str(),
                     _ => "",
                 };
-                Handle::Participant(self.bridge.participant(i32::from(*domain), name).map_err(dds_error)?)
+                if !name.is_empty()
+                    && self.bridge.participant_count() >= self.named_limit
+                    && self.bridge.existing_participant(domain, name).is_none()
+                {
+                    tracing::warn!(
+                        participant = name,
+                        limit = self.named_limit,
+                        "DDS participant limit reached: this XRCE participant shares the default DDS participant \
+                         (--participant-names off shares them all)"
+                    );
+                    name = "";
+                }
+                Handle::Participant(self.bridge.participant(domain, name).map_err(dds_error)?)
             }
             (ObjectKind::Topic, Spec::Topic { name, type_name, keyed }) => {
                 let (_, p) = self.participant_of(parent)?;
