@@ -383,7 +383,7 @@ fn xrce_requester_and_replier_talk_through_dds() {
         for m in msgs {
             h.send(port, &m);
         }
-        h.assert_all_ok(port, 1);
+        h.assert_all_ok(port, 2);
     }
     h.send(1, &req.read(requester, 0x80, unlimited()));
     h.send(2, &rep.read(replier, 0x80, unlimited()));
