@@ -20,6 +20,7 @@ pub mod message;
 pub mod object;
 pub mod submessage;
 pub mod types;
+pub mod view;
 
 pub use cdr::Endianness;
 pub use header::MessageHeader;

@@ -8,6 +8,7 @@ use xrce_proto::object::{AgentRepresentation, ClientRepresentation};
 use xrce_proto::submessage::{
     ActivityInfo, Create, CreationMode, DataFormat, DataPayload, GetInfo, Info, ReadData, StatusAgent, TimestampReply,
 };
+use xrce_proto::view::{self, RequestHead, SubmessageId};
 use xrce_proto::{
     BaseObjectReply, BaseObjectRequest, ClientKey, Endianness, EntityVariant, MessageHeader, ObjectId, ObjectKind,
     ObjectVariant, RawSubmessage, ResultStatus, StatusCode, StreamId, StreamKind, Submessage, XRCE_COOKIE,
@@ -201,19 +202,15 @@ where
         let mut writers: [Option<ObjectId>; 4] = [None; 4];
         let mut n = 0;
         for raw in subs.map_while(Result::ok) {
-            let object = match raw.header.id {
-                xrce_proto::submessage::id::WRITE_DATA => raw.payload().get(2..4),
-                xrce_proto::submessage::id::FRAGMENT
-                    if raw.header.flags & xrce_proto::submessage::flag::LAST_FRAGMENT != 0 =>
-                {
+            let object = match SubmessageId::from_u8(raw.header.id) {
+                Some(SubmessageId::WriteData) => view::write_data_object(raw.header.id, raw.payload()),
+                Some(SubmessageId::Fragment) if raw.header.flags & xrce_proto::submessage::flag::LAST_FRAGMENT != 0 => {
                     let start = client.streams.rel_in.get(&stream.0).and_then(ReliableIn::reassembly_start);
-                    let start = start.unwrap_or_else(|| raw.payload());
-                    (start.first() == Some(&xrce_proto::submessage::id::WRITE_DATA)).then(|| start.get(6..8)).flatten()
+                    view::write_data_object_in_message(start.unwrap_or_else(|| raw.payload()))
                 }
                 _ => None,
             };
-            let Some(&[a, b]) = object else { continue };
-            let id = ObjectId([a, b]);
+            let Some(id) = object else { continue };
             // Requesters too: their request writer has a first-contact gate like a datawriter's.
             if !matches!(id.kind(), ObjectKind::DataWriter | ObjectKind::Requester) || writers.contains(&Some(id)) {
                 continue;
@@ -454,15 +451,10 @@ where
     /// A CREATE or DELETE whose payload did not decode still gets a STATUS when its request id is readable,
     /// so the client does not wait forever.
     fn answer_undecodable(&mut self, key: ClientKey, stream: StreamId, raw: &RawSubmessage<'_>) {
-        use xrce_proto::submessage::id;
-        if raw.header.id != id::CREATE && raw.header.id != id::DELETE {
+        if !matches!(SubmessageId::from_u8(raw.header.id), Some(SubmessageId::Create | SubmessageId::Delete)) {
             return;
         }
-        if let Some(&[r0, r1, o0, o1]) = raw.payload().first_chunk::<4>() {
-            let request = BaseObjectRequest {
-                request_id: xrce_proto::RequestId(u16::from_be_bytes([r0, r1])),
-                object_id: ObjectId([o0, o1]),
-            };
+        if let Some(request) = BaseObjectRequest::from_prefix(raw.payload()) {
             self.send_status(key, reply_stream(stream), request, StatusCode::ERR_INVALID_DATA);
         }
     }
@@ -897,17 +889,13 @@ where
         sample: &Sample,
         now: Instant,
     ) {
-        let payload_len = 4 + sample.wire_size();
-        let Ok(length) = u16::try_from(payload_len) else {
-            tracing::warn!(client = %key, size = payload_len, "sample too large for one DATA submessage, dropped");
+        let head = RequestHead::data(SubmessageId::Data, request, sample.wire_size());
+        let Some(head_bytes) = head.to_bytes() else {
+            tracing::warn!(client = %key, size = head.encoded_len(), "sample too large for one DATA submessage, dropped");
             return;
         };
         let mut sub = self.pool.get();
-        sub.extend_from_slice(
-            &xrce_proto::SubmessageHeader { id: xrce_proto::submessage::id::DATA, flags: 0x01, length }.to_bytes(),
-        );
-        sub.extend_from_slice(&request.request_id.0.to_be_bytes());
-        sub.extend_from_slice(&request.object_id.0);
+        sub.extend_from_slice(&head_bytes);
         match sample {
             Sample::Data(d) => sub.extend_from_slice(d),
             Sample::Request { identity, data } => {
@@ -918,8 +906,9 @@ where
                 sub.extend_from_slice(data);
             }
             Sample::Reply { request_id, data } => {
-                sub.extend_from_slice(&request_id.0.to_be_bytes());
-                sub.extend_from_slice(&request.object_id.0);
+                // A reply starts with the request it answers (eProsima's requester format).
+                let related = BaseObjectRequest { request_id: *request_id, object_id: request.object_id };
+                sub.extend_from_slice(&related.to_bytes());
                 sub.extend_from_slice(data);
             }
         }

@@ -3,8 +3,9 @@
 
 use std::collections::VecDeque;
 
-use xrce_proto::submessage::{flag, id, AckNack, Heartbeat};
-use xrce_proto::{MessageHeader, SubmessageHeader};
+use xrce_proto::submessage::{AckNack, Heartbeat};
+use xrce_proto::view::{self, FragmentHead, SubmessageId};
+use xrce_proto::MessageHeader;
 
 pub use crate::bufpool::BufPool;
 
@@ -350,7 +351,7 @@ impl ReliableOut {
             if h.encode(&mut msg).is_err() {
                 continue;
             }
-            let packable = |b: &[u8]| b.first() != Some(&id::FRAGMENT);
+            let packable = |b: &[u8]| view::submessage_id(b) != Some(SubmessageId::Fragment);
             let pack = packable(&body);
             msg.extend_from_slice(&body);
             pool.put(body);
@@ -476,18 +477,16 @@ impl ReliableOut {
 /// header of `header_len` bytes (spec §9.6). No padding anywhere: the C client glues what follows the
 /// FRAGMENT header into its reassembly buffer.
 pub fn fragment(submessage: &[u8], mtu: usize, header_len: usize) -> Vec<Vec<u8>> {
-    let chunk = mtu.saturating_sub(header_len + SubmessageHeader::SIZE).max(1);
+    let chunk = mtu.saturating_sub(header_len + FragmentHead::SIZE).max(1);
     let count = submessage.len().div_ceil(chunk);
     submessage
         .chunks(chunk)
         .enumerate()
         .map(|(i, part)| {
-            let last = i + 1 == count;
-            let flags = flag::ENDIANNESS | if last { flag::LAST_FRAGMENT } else { 0 };
             // A chunk never exceeds `mtu`, itself a u16.
-            let length = u16::try_from(part.len()).unwrap_or(u16::MAX);
-            let mut body = Vec::with_capacity(SubmessageHeader::SIZE + part.len());
-            body.extend_from_slice(&SubmessageHeader { id: id::FRAGMENT, flags, length }.to_bytes());
+            let head = FragmentHead { last: i + 1 == count, chunk_len: u16::try_from(part.len()).unwrap_or(u16::MAX) };
+            let mut body = Vec::with_capacity(FragmentHead::SIZE + part.len());
+            body.extend_from_slice(&head.to_bytes());
             body.extend_from_slice(part);
             body
         })

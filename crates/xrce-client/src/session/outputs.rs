@@ -13,13 +13,15 @@ use xrce_proto::object::{
     BinaryObject, DataReaderBinary, DataReaderQos, DataWriterBinary, DataWriterQos, EntityLink, EntityVariant,
     ParticipantBinary, PubSubBinary, RequesterBinary, TopicBinary,
 };
-use xrce_proto::submessage::{flag, id, DataDeliveryControl};
-use xrce_proto::{ObjectId, ObjectVariant, Representation, SampleIdentity, StreamId, StreamKind};
+use xrce_proto::submessage::DataDeliveryControl;
+use xrce_proto::view::{self, RequestHead, StringCreate, SubmessageId};
+use xrce_proto::{
+    BaseObjectRequest, ObjectId, ObjectVariant, Representation, RequestId, SampleIdentity, StreamId, StreamKind,
+    SubmessageHeader,
+};
 
 /// First request id the C client hands out (1–9 are reserved).
 pub(crate) const FIRST_REQUEST_ID: u16 = 10;
-/// Bytes of a submessage header.
-const SUBHEADER_LEN: usize = 4;
 
 /// The output side of a session, lent to callbacks so they can answer (e.g. a replier writing its reply from
 /// `on_request`), and used by [`crate::WriteAccess`].
@@ -57,14 +59,10 @@ fn mode_flags(mode: u8) -> u8 {
     mode & (REUSE | REPLACE)
 }
 
-fn subheader(sid: u8, flags: u8, len: usize) -> Result<[u8; 4]> {
-    let l = u16::try_from(len).map_err(|_| Error::TooLarge)?.to_le_bytes();
-    Ok([sid, flags | flag::ENDIANNESS, l[0], l[1]])
-}
-
-fn base(request_id: u16, object: ObjectId) -> [u8; 4] {
-    let r = request_id.to_be_bytes();
-    [r[0], r[1], object.0[0], object.0[1]]
+/// The head of submessage `id` for `object`'s request `request_id`, with `body_len` payload bytes after it.
+fn head(id: SubmessageId, flags: u8, request_id: u16, object: ObjectId, body_len: usize) -> Result<[u8; 8]> {
+    let request = BaseObjectRequest { request_id: RequestId(request_id), object_id: object };
+    RequestHead { id, flags, request, body_len }.to_bytes().ok_or(Error::TooLarge)
 }
 
 fn encode_sample_identity(s: &SampleIdentity) -> [u8; 24] {
@@ -131,44 +129,15 @@ impl<'s, 'a> Outputs<'s, 'a> {
         let kind = object.kind();
         self.with_request(|out, request| match repr {
             Repr::Reference(s) | Repr::Xml(s) => {
-                let format = if matches!(repr, Repr::Xml(_)) { 0x02 } else { 0x01 };
-                let string_len = u32::try_from(s.len() + 1).map_err(|_| Error::TooLarge)?.to_le_bytes();
-                let b = base(request, object);
-                let prefix = [
-                    b[0],
-                    b[1],
-                    b[2],
-                    b[3],
-                    kind as u8,
-                    format,
-                    0,
-                    0,
-                    string_len[0],
-                    string_len[1],
-                    string_len[2],
-                    string_len[3],
-                ];
-                // After the string (NUL included) at payload offset 12 + len + 1 comes the link.
-                let end = 12 + s.len() + 1;
-                let mut suffix = [0u8; 4];
-                let suffix_len = match link {
-                    EntityLink::Domain(d) => {
-                        let pad = end % 2;
-                        if let Some(dst) = suffix.get_mut(1 + pad..3 + pad) {
-                            dst.copy_from_slice(&d.to_le_bytes());
-                        }
-                        3 + pad
-                    }
-                    EntityLink::Parent(p) => {
-                        suffix[1] = p.0[0];
-                        suffix[2] = p.0[1];
-                        3
-                    }
+                let create = StringCreate {
+                    request: BaseObjectRequest { request_id: RequestId(request), object_id: object },
+                    mode: mode_flags(mode),
+                    xml: matches!(repr, Repr::Xml(_)),
+                    text_len: s.len(),
+                    link,
                 };
-                let suffix = suffix.get(..suffix_len).unwrap_or(&[]);
-                let len = prefix.len() + s.len() + suffix.len();
-                let head = subheader(id::CREATE, mode_flags(mode), len)?;
-                out.write_parts(stream, &[&head, &prefix, s.as_bytes(), suffix])
+                let head = create.head().ok_or(Error::TooLarge)?;
+                out.write_parts(stream, &[&head, s.as_bytes(), create.tail().as_bytes()])
             }
             Repr::Binary(blob) => {
                 // Encoded in place, in two passes: a writer over no buffer measures the CREATE payload (CDR
@@ -176,18 +145,21 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 // same encoding goes straight into the reserved room of the stream. No scratch buffer.
                 let variant =
                     ObjectVariant::Entity(EntityVariant { kind, representation: Representation::Binary(blob), link });
-                let mut measure = Writer::with_origin(&mut [], 4, 0, Endianness::Little);
+                let mut measure = Writer::with_origin(&mut [], BaseObjectRequest::SIZE, 0, Endianness::Little);
                 measure.write(&variant);
                 let payload = match measure.finish() {
                     Ok(n) | Err(xrce_proto::cdr::Error::BufferTooSmall { needed: n }) => n,
                     Err(e) => return Err(Error::Encode(e)),
                 };
-                let head = subheader(id::CREATE, mode_flags(mode), payload)?;
-                let b = base(request, object);
-                let region = out.reserve(stream, SUBHEADER_LEN + payload)?;
-                let Some((prefix, _)) = region.split_first_chunk_mut::<8>() else { return Err(Error::TooLarge) };
-                *prefix = [head[0], head[1], head[2], head[3], b[0], b[1], b[2], b[3]];
-                let mut w = Writer::with_origin(region, 8, SUBHEADER_LEN, Endianness::Little);
+                let body_len = payload.saturating_sub(BaseObjectRequest::SIZE);
+                let head = head(SubmessageId::Create, mode_flags(mode), request, object, body_len)?;
+                let region = out.reserve(stream, RequestHead::SIZE + body_len)?;
+                let Some((prefix, _)) = region.split_first_chunk_mut::<{ RequestHead::SIZE }>() else {
+                    return Err(Error::TooLarge);
+                };
+                *prefix = head;
+                // CDR alignment counts from the payload, after the submessage header.
+                let mut w = Writer::with_origin(region, RequestHead::SIZE, SubmessageHeader::SIZE, Endianness::Little);
                 w.write(&variant);
                 w.finish().map(drop).map_err(Error::Encode)
             }
@@ -484,8 +456,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
     /// `uxr_buffer_delete_entity`.
     pub fn buffer_delete_entity(&mut self, stream: StreamId, object: ObjectId) -> Result<u16> {
         self.with_request(|out, request| {
-            let head = subheader(id::DELETE, 0, 4)?;
-            out.write_parts(stream, &[&head, &base(request, object)])
+            out.write_parts(stream, &[&head(SubmessageId::Delete, 0, request, object, 0)?])
         })
     }
 
@@ -514,24 +485,9 @@ impl<'s, 'a> Outputs<'s, 'a> {
         control: Option<&DataDeliveryControl>,
     ) -> Result<u16> {
         self.with_request(|out, request| {
-            let b = base(request, reader);
-            let mut body =
-                [b[0], b[1], b[2], b[3], data_stream, 0, 0, u8::from(control.is_some()), 0, 0, 0, 0, 0, 0, 0, 0];
-            let len = if let Some(c) = control {
-                for (i, v) in [c.max_samples, c.max_elapsed_time, c.max_bytes_per_second, c.min_pace_period]
-                    .into_iter()
-                    .enumerate()
-                {
-                    if let Some(dst) = body.get_mut(8 + 2 * i..10 + 2 * i) {
-                        dst.copy_from_slice(&v.to_le_bytes());
-                    }
-                }
-                16
-            } else {
-                8
-            };
-            let head = subheader(id::READ_DATA, 0, len)?;
-            out.write_parts(stream, &[&head, body.get(..len).unwrap_or(&[])])
+            let (spec, len) = view::read_spec_bytes(data_stream, control);
+            let head = head(SubmessageId::ReadData, 0, request, reader, len)?;
+            out.write_parts(stream, &[&head, spec.get(..len).unwrap_or(&[])])
         })
     }
 
@@ -541,8 +497,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
     /// reliable stream when larger than one.
     pub fn buffer_topic(&mut self, stream: StreamId, writer: ObjectId, data: &[u8]) -> Result<u16> {
         self.with_request(|out, request| {
-            let head = subheader(id::WRITE_DATA, 0, 4 + data.len())?;
-            out.write_parts(stream, &[&head, &base(request, writer), data])
+            out.write_parts(stream, &[&head(SubmessageId::WriteData, 0, request, writer, data.len())?, data])
         })
     }
 
@@ -563,8 +518,8 @@ impl<'s, 'a> Outputs<'s, 'a> {
     ) -> Result<u16> {
         let identity = encode_sample_identity(sample_id);
         self.with_request(|out, request| {
-            let head = subheader(id::WRITE_DATA, 0, 4 + SampleIdentity::SIZE + data.len())?;
-            out.write_parts(stream, &[&head, &base(request, replier), &identity, data])
+            let head = head(SubmessageId::WriteData, 0, request, replier, SampleIdentity::SIZE + data.len())?;
+            out.write_parts(stream, &[&head, &identity, data])
         })
     }
 
@@ -572,14 +527,13 @@ impl<'s, 'a> Outputs<'s, 'a> {
     /// The sample must fit one message: [`Error::TooLarge`] otherwise (use [`buffer_topic`](Self::buffer_topic)
     /// or `prepare_output_stream_fragmented`).
     pub fn prepare_output_stream(self, stream: StreamId, entity: ObjectId, size: usize) -> Result<Prepared<'s>> {
-        let head = subheader(id::WRITE_DATA, 0, 4 + size)?;
         let Outputs { last_request_id, best_effort, reliable } = self;
         let request = request_after(*last_request_id);
-        let region = reserve_in(best_effort, reliable, stream, 8 + size)?;
+        let head = head(SubmessageId::WriteData, 0, request, entity, size)?;
+        let region = reserve_in(best_effort, reliable, stream, RequestHead::SIZE + size)?;
         *last_request_id = request;
-        let (h, data) = region.split_at_mut(8);
-        let r = request.to_be_bytes();
-        h.copy_from_slice(&[head[0], head[1], head[2], head[3], r[0], r[1], entity.0[0], entity.0[1]]);
+        let (h, data) = region.split_at_mut(RequestHead::SIZE);
+        h.copy_from_slice(&head);
         Ok(Prepared { request_id: request, buf: data })
     }
 
@@ -588,10 +542,9 @@ impl<'s, 'a> Outputs<'s, 'a> {
     /// A payload over 65535 bytes is announced with length 0, eProsima's write-limit convention.
     pub fn begin_fragmented(&mut self, stream: StreamId, entity: ObjectId, size: usize) -> Result<u16> {
         self.with_request(|out, request| {
-            let len = u16::try_from(4 + size).unwrap_or(0).to_le_bytes();
-            let b = base(request, entity);
-            let head = [id::WRITE_DATA, flag::ENDIANNESS, len[0], len[1], b[0], b[1], b[2], b[3]];
-            out.reliable_mut(stream)?.begin_chain(&head, 8 + size)
+            let request = BaseObjectRequest { request_id: RequestId(request), object_id: entity };
+            let head = RequestHead::data(SubmessageId::WriteData, request, size);
+            out.reliable_mut(stream)?.begin_chain(&head.to_bytes_fragmented(), head.encoded_len())
         })
     }
 

@@ -3,7 +3,7 @@
 
 use super::{fragment_info, seq, slot_size, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
-use xrce_proto::MessageHeader;
+use xrce_proto::{MessageHeader, SubmessageHeader};
 
 /// What [`InputReliable::receive`] decided for a message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -218,10 +218,11 @@ impl<'a> InputReliable<'a> {
             let msg_at = base + SLOT_LEN_WORD;
             let hs = self.buf.get(msg_at).map_or(MessageHeader::MAX_SIZE, |&s| MessageHeader::size_for(s));
             let sub = msg_at + hs;
-            let sublen = match self.buf.get(sub + 2..sub + 4) {
-                Some(&[lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
-                _ => 0,
-            };
+            let sublen = self
+                .buf
+                .get(sub..)
+                .and_then(<[u8]>::first_chunk::<{ SubmessageHeader::SIZE }>)
+                .map_or(0, |h| usize::from(SubmessageHeader::from_bytes(*h).length));
             let n = sublen.min(len.saturating_sub(hs + SUBHEADER));
             let from = sub + SUBHEADER;
             if from + n <= self.buf.len() {

@@ -15,7 +15,6 @@ pub use input_reliable::{InputReliable, Ready, Received};
 pub use output_best_effort::OutputBestEffort;
 pub use output_reliable::{OutputReliable, HEARTBEAT_PERIOD_NS, PROBE_FLOOR_NS};
 
-use xrce_proto::submessage::{flag, id};
 use xrce_proto::MessageHeader;
 
 /// Serial-number arithmetic on 16-bit sequence numbers (spec §9.1).
@@ -47,7 +46,7 @@ pub mod seq {
 /// Bytes of every slot used for the length word (not on the wire), as in the C client.
 pub(crate) const SLOT_LEN_WORD: usize = 4;
 /// Largest submessage header.
-pub(crate) const SUBHEADER: usize = 4;
+pub(crate) const SUBHEADER: usize = xrce_proto::SubmessageHeader::SIZE;
 
 /// Rounds `n` up to a multiple of 4 (submessages start 4-aligned from the message start).
 pub(crate) const fn align4(n: usize) -> usize {
@@ -107,9 +106,7 @@ impl<'p> Parts<'p> {
 /// only at the first submessage after the header (spec §9.4).
 pub(crate) fn fragment_info(msg: &[u8]) -> Option<bool> {
     let hs = MessageHeader::size_for(*msg.first()?);
-    let sub = msg.get(hs..hs + SUBHEADER)?;
-    let (&sid, &flags) = (sub.first()?, sub.get(1)?);
-    (sid == id::FRAGMENT).then_some(flags & flag::LAST_FRAGMENT != 0)
+    xrce_proto::view::FragmentHead::parse(msg.get(hs..)?).map(|f| f.last)
 }
 
 #[cfg(test)]

@@ -33,7 +33,7 @@
 
 use super::{align4, seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
-use xrce_proto::submessage::{flag, id};
+use xrce_proto::view::FragmentHead;
 use xrce_proto::{ClientKey, MessageHeader, StreamId};
 
 /// Heartbeat period of the C client (`UCLIENT_MIN_HEARTBEAT_TIME_INTERVAL`), in nanoseconds.
@@ -390,8 +390,8 @@ impl<'a> OutputReliable<'a> {
         if let Some(pad) = content.get_mut(old.min(at)..at) {
             pad.fill(0);
         }
-        if let Some(h) = content.get_mut(at..at + SUBHEADER) {
-            h.copy_from_slice(&[id::FRAGMENT, flag::ENDIANNESS, 0, 0]);
+        if let Some(h) = content.get_mut(at..) {
+            FragmentHead { last: false, chunk_len: 0 }.set_in(h);
         }
         self.set_len(first, at + SUBHEADER, ENDS_WITH_FRAGMENT);
         self.chain = Some(Chain { seq: first, started: true, sub_at: at, remaining: total });
@@ -441,8 +441,8 @@ impl<'a> OutputReliable<'a> {
                 if !self.window_ok(c.seq) {
                     break;
                 }
-                if let Some(h) = self.content_mut(c.seq).get_mut(hs..hs + SUBHEADER) {
-                    h.copy_from_slice(&[id::FRAGMENT, flag::ENDIANNESS, 0, 0]);
+                if let Some(h) = self.content_mut(c.seq).get_mut(hs..) {
+                    FragmentHead { last: false, chunk_len: 0 }.set_in(h);
                 }
                 self.set_len(c.seq, hs + SUBHEADER, ENDS_WITH_FRAGMENT);
                 c.started = true;
@@ -459,11 +459,11 @@ impl<'a> OutputReliable<'a> {
             c.remaining -= n;
             let len = len + n;
             self.set_len(c.seq, len, ENDS_WITH_FRAGMENT);
-            let chunk = u16::try_from(len - c.sub_at - SUBHEADER).unwrap_or(0).to_le_bytes();
+            let chunk_len = u16::try_from(len - c.sub_at - SUBHEADER).unwrap_or(0);
             if c.remaining == 0 {
                 let sub_at = c.sub_at;
-                if let Some(h) = self.content_mut(c.seq).get_mut(sub_at + 1..sub_at + 4) {
-                    h.copy_from_slice(&[flag::ENDIANNESS | flag::LAST_FRAGMENT, chunk[0], chunk[1]]);
+                if let Some(h) = self.content_mut(c.seq).get_mut(sub_at..) {
+                    FragmentHead { last: true, chunk_len }.set_in(h);
                 }
                 // Seal the slot: nothing is appended after a FRAGMENT.
                 self.last_written = c.seq.wrapping_add(1);
@@ -472,8 +472,8 @@ impl<'a> OutputReliable<'a> {
             }
             if len == cap {
                 let sub_at = c.sub_at;
-                if let Some(h) = self.content_mut(c.seq).get_mut(sub_at + 2..sub_at + 4) {
-                    h.copy_from_slice(&chunk);
+                if let Some(h) = self.content_mut(c.seq).get_mut(sub_at..) {
+                    FragmentHead { last: false, chunk_len }.set_in(h);
                 }
                 c.seq = c.seq.wrapping_add(1);
                 c.started = false;
