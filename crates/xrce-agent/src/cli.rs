@@ -565,7 +565,7 @@ fn all_devices(text: &str, path: &Path) -> Result<Vec<String>, clap::Error> {
 mod tests {
     use super::*;
 
-    const REFS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/vectors/agent.refs");
+    const REFS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vectors/agent.refs");
 
     fn parse(line: &str) -> Result<Config, clap::Error> {
         parse_from(std::iter::once("xrce-agent").chain(line.split_whitespace()))

@@ -1,4 +1,4 @@
-//! Every XRCE message of every capture of eProsima traffic (`shared/vectors/captures/`) decodes, and encoding
+//! Every XRCE message of every capture of eProsima traffic (`tests/data/vectors/captures/`) decodes, and encoding
 //! what was decoded gives the same bytes, padding excepted (the C client leaves padding bytes uninitialised and
 //! pads the end of its stream messages: spec §1.1, §3). Fragmented messages are reassembled and their inner
 //! messages checked the same way. TCP captures go through the TCP framing decoder; the serial capture has its
@@ -15,7 +15,7 @@ use xrce_proto::submessage::Submessage;
 use xrce_proto::{MessageHeader, ObjectVariant, Representation, StreamKind};
 
 fn captures_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/vectors/captures")
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vectors/captures"))
 }
 
 /// One transport payload of a capture.

@@ -3,9 +3,9 @@
 
 use xrce_proto::framing::serial::{encode_frame, max_encoded_len, AddressFilter, Event, FrameDecoder};
 
-/// The capture, in the shared vectors folder beside the repository root.
+/// The capture, in the repository's vectors folder (`tests/data/vectors`).
 const CAPTURE_PATH: &str =
-    concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/vectors/captures/serial_ping_agent_socat_hexdump.txt");
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vectors/captures/serial_ping_agent_socat_hexdump.txt");
 
 fn capture() -> String {
     std::fs::read_to_string(CAPTURE_PATH).unwrap_or_else(|e| panic!("cannot read {CAPTURE_PATH}: {e}"))

@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 
 use xrce_proto::framing::tcp::{encode, TcpDecoder, TcpEvent};
 
-/// The capture, in the shared vectors folder beside the repository root.
+/// The capture, in the repository's vectors folder (`tests/data/vectors`).
 const CAPTURE_PATH: &str =
-    concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/vectors/captures/tcp_ping_and_shapes.txt");
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vectors/captures/tcp_ping_and_shapes.txt");
 
 fn capture() -> String {
     std::fs::read_to_string(CAPTURE_PATH).unwrap_or_else(|e| panic!("cannot read {CAPTURE_PATH}: {e}"))

@@ -1,6 +1,6 @@
 use super::*;
 
-const REFS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/vectors/agent.refs");
+const REFS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vectors/agent.refs");
 
 fn xml(kind: ObjectKind, text: &str) -> EntityProfile {
     match parse_entity_xml(kind, text) {

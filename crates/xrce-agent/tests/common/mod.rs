@@ -23,7 +23,7 @@ pub struct Packet {
 }
 
 pub fn captures_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/vectors/captures")
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vectors/captures"))
 }
 
 /// Parses a `captures/*.txt` file.
@@ -305,7 +305,7 @@ pub fn create_client_msg(key: u32, session: u8) -> Vec<u8> {
     buf[..n].to_vec()
 }
 
-/// A core whose CED resolves references with the refs file `vectors/agent.refs`.
+/// A core whose CED resolves references with the refs file `tests/data/vectors/agent.refs`.
 pub fn new_core_with_refs() -> TestCore {
     let profiles = xrce_agent::middleware::profiles::StoreProfiles::new();
     profiles.load_file(captures_dir().join("../agent.refs")).expect("agent.refs");

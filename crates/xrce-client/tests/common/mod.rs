@@ -18,9 +18,9 @@ pub struct Packet {
     pub bytes: Vec<u8>,
 }
 
-/// Reads `/work/shared/vectors/captures/<name>`.
+/// Reads `tests/data/vectors/captures/<name>` (at the workspace root).
 pub fn capture(name: &str) -> Vec<Packet> {
-    let path = format!("{}/../../../shared/vectors/captures/{name}", env!("CARGO_MANIFEST_DIR"));
+    let path = format!("{}/../../tests/data/vectors/captures/{name}", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let mut packets: Vec<Packet> = Vec::new();
     for line in text.lines() {
