@@ -217,6 +217,102 @@ fn tcp4_two_connections_pubsub_with_partial_writes() {
     instance.stop().unwrap();
 }
 
+/// Connects a TCP client with session key `key`, creates a publisher and a subscriber on `topic` and, with
+/// `read`, asks for the samples on best-effort stream 1 (pushed without acknowledgements).
+fn tcp_pubsub_client(addr: SocketAddr, key: u32, topic: &str, read: bool) -> (TcpStream, Client) {
+    let mut stream = TcpStream::connect(addr).unwrap();
+    stream.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+    stream.set_nodelay(true).unwrap();
+    let mut c = Client::new(key);
+    let (mut got, mut pending) = (Vec::new(), Vec::new());
+    stream.write_all(&tcp_frame(&create_client_msg(key, 0x81))).unwrap();
+    assert!(tcp_wait(&mut stream, &mut got, &mut pending, |o| o.contains(&Out::StatusAgent { status: 0 })));
+    let glued: Vec<u8> = c.pubsub_entities(topic).iter().flat_map(|m| tcp_frame(m)).collect();
+    stream.write_all(&glued).unwrap();
+    let six_ok = |o: &[Out]| o.iter().filter(|x| matches!(x, Out::Status { status: 0, .. })).count() == 6;
+    assert!(tcp_wait(&mut stream, &mut got, &mut pending, six_ok));
+    if read {
+        stream.write_all(&tcp_frame(&c.read(ObjectId::new(1, ObjectKind::DataReader), 0x01, unlimited()))).unwrap();
+    }
+    (stream, c)
+}
+
+/// Counts the DATA submessages arriving on `stream` until `until`; returns them and the longest wait between two.
+fn count_data(mut stream: TcpStream, until: Instant) -> (u64, Duration) {
+    let (mut samples, mut pending, mut buf) = (0u64, Vec::new(), vec![0u8; 64 * 1024]);
+    let (mut last, mut worst_gap) = (Instant::now(), Duration::ZERO);
+    while Instant::now() < until {
+        let n = match stream.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(_) => continue,
+        };
+        pending.extend_from_slice(&buf[..n]);
+        while pending.len() >= 2 {
+            let len = u16::from_le_bytes([pending[0], pending[1]]) as usize;
+            if pending.len() < 2 + len {
+                break;
+            }
+            let msg: Vec<u8> = pending.drain(..2 + len).skip(2).collect();
+            let (_, subs) = decode_owned(&msg);
+            let data = subs.iter().filter(|o| matches!(o, Out::Data { .. })).count() as u64;
+            if data > 0 {
+                worst_gap = worst_gap.max(last.elapsed());
+                last = Instant::now();
+                samples += data;
+            }
+        }
+    }
+    (samples, worst_gap)
+}
+
+/// A TCP subscriber that stops reading must not hold up another one: the agent keeps the stalled client's
+/// messages in that client's own outbox (and closes it once the outbox is full or stuck for the write
+/// timeout) while the healthy subscriber keeps receiving. Before the per-connection outboxes, every write
+/// waited for the stalled socket for up to the 2 s write timeout, so the healthy subscriber saw a 2 s gap.
+#[test]
+fn tcp_client_that_stops_reading_does_not_hold_up_another() {
+    const SAMPLE: usize = 400; // one best-effort DATA within the agent's TCP MTU
+    const PER_MS: u32 = 8; // ~3.2 MB/s: fills the stalled client's socket buffers within seconds
+    const RUN: Duration = Duration::from_secs(5);
+    let (mut instance, addr) = start(&["tcp4", "-p", "0", "-m", "ced", "-v", "0"]);
+    let (mut stalled, _) = tcp_pubsub_client(addr, 0x7D00_0001, "stall", true);
+    let (healthy, _) = tcp_pubsub_client(addr, 0x7D00_0002, "stall", true);
+    let (mut publ, mut p) = tcp_pubsub_client(addr, 0x7D00_0003, "stall", false);
+    std::thread::sleep(Duration::from_millis(50));
+    // From here on `stalled` is never read.
+    let counter = std::thread::spawn(move || count_data(healthy, Instant::now() + RUN + Duration::from_secs(1)));
+    let writer = ObjectId::new(1, ObjectKind::DataWriter);
+    let sample = vec![0x5Au8; SAMPLE];
+    let started = Instant::now();
+    let mut sent = 0u64;
+    while started.elapsed() < RUN {
+        for _ in 0..PER_MS {
+            publ.write_all(&tcp_frame(&p.write(false, writer, &sample))).unwrap();
+            sent += 1;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let secs = started.elapsed().as_secs_f64();
+    let (received, worst_gap) = counter.join().unwrap();
+    let mut probe = [0u8; 1];
+    stalled.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    let stalled_state = match stalled.read(&mut probe) {
+        Ok(0) => "closed by the agent",
+        Ok(_) => "open, data waiting",
+        Err(_) => "open",
+    };
+    println!(
+        "published {sent} samples of {SAMPLE} B in {secs:.2} s ({:.0}/s); the healthy subscriber received {received} \
+         ({:.0}/s), worst gap {worst_gap:?}; the stalled one read nothing (its connection: {stalled_state})",
+        sent as f64 / secs,
+        received as f64 / secs,
+    );
+    assert!(received * 100 >= sent * 95, "the healthy subscriber got {received} of {sent}");
+    assert!(worst_gap < Duration::from_secs(1), "the healthy subscriber waited {worst_gap:?} at once");
+    instance.stop().unwrap();
+}
+
 /// First throughput figure: 64-byte samples, best effort, one publisher to one subscriber through CED over
 /// UDP loopback. Run with `cargo test --release -p xrce-agent --test e2e throughput -- --ignored --nocapture`.
 #[test]

@@ -1,100 +1,155 @@
 //! TCP shell (IPv4 and IPv6): messages framed by a 2-byte little-endian length (spec §12.2), many
-//! connections, each read by its own thread; partial reads are reassembled by
-//! [`TcpDecoder`](xrce_proto::framing::tcp::TcpDecoder) and partial writes completed by `write_all` with a
-//! write timeout (a client that stops reading is disconnected).
+//! connections, one thread. A `mio` event loop accepts, reads every connection without blocking (partial
+//! reads reassembled by [`TcpDecoder`](xrce_proto::framing::tcp::TcpDecoder)), runs the core's timers, is
+//! woken by the middleware through a [`mio::Waker`], and writes each connection from its own outbox with
+//! vectored writes as far as the socket takes them: a client that stops reading only fills its own outbox,
+//! and is closed once that holds [`MAX_OUTBOX_BYTES`] or has not moved for [`WRITE_TIMEOUT`]. Nothing else
+//! waits for it.
 
-use std::collections::HashMap;
-use std::io::{self, Read, Write};
-use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
-use std::thread;
+use std::collections::{HashMap, VecDeque};
+use std::io::{self, IoSlice, Read, Write};
+use std::net::{Shutdown, SocketAddr};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
+use mio::net::{TcpListener, TcpStream};
+use mio::{Events, Interest, Poll, Token};
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore, WakeSignal, MAX_BLOCK};
+use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore};
 use crate::core::Transmit;
 
 /// Most simultaneous connections; more are closed on accept.
 pub const MAX_CONNECTIONS: usize = 1024;
-/// A connection whose peer does not take a message within this time is closed.
+/// A connection whose outbox has not moved for this long while holding data is closed (its peer stopped
+/// reading).
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
+/// Bytes a connection's outbox may hold; a peer that lets more pile up is closed. 4 MiB is 64 full-size
+/// messages, well above what a reliable stream's window keeps in flight.
+pub const MAX_OUTBOX_BYTES: usize = 4 * 1024 * 1024;
+/// Messages written in one vectored write (two slices each: length prefix and message).
+const WRITE_BATCH: usize = 32;
+
+const LISTENER: Token = Token(0);
+const WAKER: Token = Token(1);
+/// Connection tokens are `FIRST_CONN + ConnId`.
+const FIRST_CONN: usize = 2;
 
 /// Identifies a TCP connection to the core.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ConnId(pub u64);
 
-type Writers = Arc<Mutex<HashMap<ConnId, (SocketAddr, TcpStream)>>>;
+impl ConnId {
+    fn token(self) -> Token {
+        Token(usize::try_from(self.0).unwrap_or(usize::MAX).saturating_add(FIRST_CONN))
+    }
+
+    fn of(token: Token) -> Option<Self> {
+        token.0.checked_sub(FIRST_CONN).and_then(|n| u64::try_from(n).ok()).map(Self)
+    }
+}
 
 /// A TCP server around a shared core.
 #[derive(Debug)]
 pub struct TcpServer {
-    listener: TcpListener,
+    listener: std::net::TcpListener,
     core: SharedCore<ConnId>,
-    writers: Writers,
-    next_id: Arc<AtomicU64>,
-    wake: Arc<WakeSignal>,
+    /// Created at bind so the middleware's waker exists before the loop runs; the loop takes it.
+    poll: Mutex<Option<Poll>>,
 }
 
-fn lock_writers(w: &Writers) -> std::sync::MutexGuard<'_, HashMap<ConnId, (SocketAddr, TcpStream)>> {
-    w.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+/// One connection: its socket, the reassembly of what it sends and the framed messages waiting to go out.
+struct Conn {
+    stream: TcpStream,
+    peer: SocketAddr,
+    decoder: TcpDecoder<Vec<u8>>,
+    /// Length prefixes and messages, in order; the front one is `sent` bytes into its prefix + message.
+    outbox: VecDeque<([u8; 2], Vec<u8>)>,
+    sent: usize,
+    queued: usize,
+    /// When the outbox last moved (or got its first message after being empty).
+    progress_at: Instant,
+    writable_interest: bool,
 }
 
-/// Sends what the core produced to the connections; a failed connection is closed.
-fn dispatch(core: &SharedCore<ConnId>, writers: &Writers, transmits: Vec<Transmit<ConnId>>) {
-    let mut failed = Vec::new();
-    {
-        let map = lock_writers(writers);
-        for t in transmits {
-            let Some((peer, stream)) = map.get(&t.to) else { continue };
-            let Ok(head) = prefix(t.data.len()) else {
-                tracing::warn!(%peer, len = t.data.len(), "message too large for TCP framing");
-                continue;
-            };
-            hexdump("send", peer, &t.data);
-            let mut framed = Vec::with_capacity(2 + t.data.len());
-            framed.extend_from_slice(&head);
-            framed.extend_from_slice(&t.data);
-            let mut s: &TcpStream = stream;
-            if let Err(e) = s.write_all(&framed) {
-                tracing::warn!(%peer, "TCP write failed, closing: {e}");
-                failed.push(t.to);
-            }
+impl Conn {
+    fn queue(&mut self, data: Vec<u8>, now: Instant) -> bool {
+        let Ok(head) = prefix(data.len()) else {
+            tracing::warn!(peer = %self.peer, len = data.len(), "message too large for TCP framing");
+            return true;
+        };
+        if self.outbox.is_empty() {
+            self.progress_at = now;
         }
+        self.queued += 2 + data.len();
+        self.outbox.push_back((head, data));
+        self.queued <= MAX_OUTBOX_BYTES
     }
-    for id in failed {
-        close(core, writers, id);
-    }
-}
 
-fn close(core: &SharedCore<ConnId>, writers: &Writers, id: ConnId) {
-    if let Some((_, s)) = lock_writers(writers).remove(&id) {
-        let _ = s.shutdown(Shutdown::Both);
+    /// Writes as much of the outbox as the socket takes now; `Err` when the connection failed.
+    fn flush(&mut self, now: Instant, recycle: &mut Vec<Vec<u8>>) -> io::Result<()> {
+        while !self.outbox.is_empty() {
+            let mut slices = [IoSlice::new(&[]); 2 * WRITE_BATCH];
+            let mut n = 0;
+            for (i, (head, data)) in self.outbox.iter().take(WRITE_BATCH).enumerate() {
+                // Only the front frame may be partly written already.
+                let skip = if i == 0 { self.sent } else { 0 };
+                let parts = [head.get(skip.min(2)..).unwrap_or(&[]), data.get(skip.saturating_sub(2)..).unwrap_or(&[])];
+                for part in parts.into_iter().filter(|p| !p.is_empty()) {
+                    if let Some(slot) = slices.get_mut(n) {
+                        *slot = IoSlice::new(part);
+                        n += 1;
+                    }
+                }
+            }
+            let written = match self.stream.write_vectored(slices.get(..n).unwrap_or(&[])) {
+                Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
+                Ok(w) => w,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(()),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            self.progress_at = now;
+            self.queued = self.queued.saturating_sub(written);
+            let mut left = self.sent + written;
+            while let Some((_, data)) = self.outbox.front() {
+                let whole = 2 + data.len();
+                if left < whole {
+                    break;
+                }
+                left -= whole;
+                if let Some((_, data)) = self.outbox.pop_front() {
+                    recycle.push(data);
+                }
+            }
+            self.sent = left;
+        }
+        Ok(())
     }
-    lock(core).forget_endpoint(id);
-}
 
-fn drain(core: &SharedCore<ConnId>) -> Vec<Transmit<ConnId>> {
-    let mut c = lock(core);
-    let mut out = Vec::new();
-    while let Some(t) = c.poll_transmit() {
-        out.push(t);
+    /// Whether the peer has stopped taking what is sent to it.
+    fn stalled(&self, now: Instant) -> bool {
+        !self.outbox.is_empty() && now.saturating_duration_since(self.progress_at) >= WRITE_TIMEOUT
     }
-    out
 }
 
 impl TcpServer {
-    /// Binds `addr` (port 0: an ephemeral port).
+    /// Binds `addr` (port 0: an ephemeral port) and installs the middleware's waker.
     pub fn bind(addr: SocketAddr, core: SharedCore<ConnId>) -> io::Result<Self> {
-        let listener = TcpListener::bind(addr)?;
-        let wake = Arc::new(WakeSignal::default());
+        let listener = std::net::TcpListener::bind(addr)?;
+        listener.set_nonblocking(true)?;
+        let poll = Poll::new()?;
+        let waker = Arc::new(mio::Waker::new(poll.registry(), WAKER)?);
         {
             let mut c = lock(&core);
             anchor_wall_clock(&mut c);
-            wake.install(&mut c);
+            c.middleware_mut().set_waker(Arc::new(move || {
+                // A failed wake-up only delays the poll to the loop's next turn (at most MAX_BLOCK).
+                let _ = waker.wake();
+            }));
         }
-        Ok(Self { listener, core, writers: Arc::default(), next_id: Arc::new(AtomicU64::new(1)), wake })
+        Ok(Self { listener, core, poll: Mutex::new(Some(poll)) })
     }
 
     /// The bound address.
@@ -102,95 +157,117 @@ impl TcpServer {
         self.listener.local_addr()
     }
 
-    /// Serves until `stop` is set: accepts connections (one reader thread each) and runs the core's timers.
+    /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
-        self.listener.set_nonblocking(true)?;
-        let timers = {
-            let (core, writers, stop, wake) =
-                (self.core.clone(), self.writers.clone(), stop.clone(), self.wake.clone());
-            thread::Builder::new()
-                .name("xrce-tcp-timers".into())
-                .spawn(move || timer_loop(&core, &writers, &stop, &wake))?
-        };
-        let mut readers = Vec::new();
+        let mut poll = self
+            .poll
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+            .ok_or_else(|| io::Error::other("this TCP server is already running"))?;
+        let mut listener = TcpListener::from_std(self.listener.try_clone()?);
+        poll.registry().register(&mut listener, LISTENER, Interest::READABLE)?;
+        let mut looped = Loop { conns: HashMap::new(), next_id: 1, buf: vec![0u8; 64 * 1024], recycle: Vec::new() };
+        let mut events = Events::with_capacity(256);
         while !stop.load(Ordering::Relaxed) {
-            match self.listener.accept() {
-                Ok((stream, peer)) => {
-                    readers.retain(|h: &thread::JoinHandle<()>| !h.is_finished());
-                    if lock_writers(&self.writers).len() >= MAX_CONNECTIONS {
-                        tracing::warn!(%peer, "too many TCP connections, refusing");
-                        continue;
-                    }
-                    match self.start_connection(stream, peer, stop) {
-                        Ok(h) => readers.push(h),
-                        Err(e) => tracing::warn!(%peer, "cannot serve TCP connection: {e}"),
+            let timeout = block_for(lock(&self.core).poll_timeout(), Instant::now());
+            if let Err(e) = poll.poll(&mut events, Some(timeout)) {
+                if e.kind() != io::ErrorKind::Interrupted {
+                    return Err(e);
+                }
+            }
+            let mut woken = false;
+            for event in &events {
+                match event.token() {
+                    LISTENER => looped.accept(&listener, &poll),
+                    WAKER => woken = true,
+                    token => {
+                        let Some(id) = ConnId::of(token) else { continue };
+                        if event.is_readable() || event.is_read_closed() || event.is_error() {
+                            looped.read(id, &self.core, &poll);
+                        }
                     }
                 }
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => thread::sleep(Duration::from_millis(20)),
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => tracing::warn!("TCP accept failed: {e}"),
             }
+            looped.run_core(&self.core, woken);
+            looped.send(&self.core, &poll);
         }
-        for (_, (_, s)) in lock_writers(&self.writers).drain() {
-            let _ = s.shutdown(Shutdown::Both);
+        for (_, conn) in looped.conns.drain() {
+            let _ = conn.stream.shutdown(Shutdown::Both);
         }
-        for h in readers {
-            let _ = h.join();
-        }
-        let _ = timers.join();
         Ok(())
-    }
-
-    fn start_connection(
-        &self,
-        stream: TcpStream,
-        peer: SocketAddr,
-        stop: &Arc<AtomicBool>,
-    ) -> io::Result<thread::JoinHandle<()>> {
-        stream.set_nonblocking(false)?;
-        stream.set_nodelay(true)?;
-        stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
-        stream.set_read_timeout(Some(MAX_BLOCK))?;
-        let id = ConnId(self.next_id.fetch_add(1, Ordering::Relaxed));
-        lock_writers(&self.writers).insert(id, (peer, stream.try_clone()?));
-        tracing::info!(%peer, conn = id.0, "TCP connection accepted");
-        let (core, writers, stop) = (self.core.clone(), self.writers.clone(), stop.clone());
-        thread::Builder::new()
-            .name(format!("xrce-tcp-{}", id.0))
-            .spawn(move || read_loop(stream, peer, id, &core, &writers, &stop))
     }
 }
 
-fn read_loop(
-    mut stream: TcpStream,
-    peer: SocketAddr,
-    id: ConnId,
-    core: &SharedCore<ConnId>,
-    writers: &Writers,
-    stop: &AtomicBool,
-) {
-    let mut decoder = TcpDecoder::new(vec![0u8; MAX_MESSAGE_LEN]);
-    let mut buf = vec![0u8; 64 * 1024];
-    while !stop.load(Ordering::Relaxed) {
-        let n = match stream.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-                ) =>
-            {
-                continue
+/// The event loop's state.
+struct Loop {
+    conns: HashMap<ConnId, Conn>,
+    next_id: u64,
+    buf: Vec<u8>,
+    /// Message buffers written out, handed back to the core for reuse.
+    recycle: Vec<Vec<u8>>,
+}
+
+impl Loop {
+    fn accept(&mut self, listener: &TcpListener, poll: &Poll) {
+        loop {
+            let (mut stream, peer) = match listener.accept() {
+                Ok(a) => a,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::warn!("TCP accept failed: {e}");
+                    return;
+                }
+            };
+            if self.conns.len() >= MAX_CONNECTIONS {
+                tracing::warn!(%peer, "too many TCP connections, refusing");
+                continue;
             }
-            Err(e) => {
-                tracing::debug!(%peer, "TCP read failed: {e}");
-                break;
+            let id = ConnId(self.next_id);
+            self.next_id += 1;
+            let _ = stream.set_nodelay(true);
+            if let Err(e) = poll.registry().register(&mut stream, id.token(), Interest::READABLE) {
+                tracing::warn!(%peer, "cannot serve TCP connection: {e}");
+                continue;
             }
-        };
-        {
+            tracing::info!(%peer, conn = id.0, "TCP connection accepted");
+            let conn = Conn {
+                stream,
+                peer,
+                decoder: TcpDecoder::new(vec![0u8; MAX_MESSAGE_LEN]),
+                outbox: VecDeque::new(),
+                sent: 0,
+                queued: 0,
+                progress_at: Instant::now(),
+                writable_interest: false,
+            };
+            self.conns.insert(id, conn);
+        }
+    }
+
+    /// Reads what `id` has sent and hands every complete message to the core.
+    fn read(&mut self, id: ConnId, core: &SharedCore<ConnId>, poll: &Poll) {
+        let Some(conn) = self.conns.get_mut(&id) else { return };
+        let mut closed = false;
+        loop {
+            let n = match conn.stream.read(&mut self.buf) {
+                Ok(0) => {
+                    closed = true;
+                    break;
+                }
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::debug!(peer = %conn.peer, "TCP read failed: {e}");
+                    closed = true;
+                    break;
+                }
+            };
+            let peer = conn.peer;
             let mut c = lock(core);
-            decoder.push(buf.get(..n).unwrap_or(&[]), |event| match event {
+            conn.decoder.push(self.buf.get(..n).unwrap_or(&[]), |event| match event {
                 TcpEvent::Message(msg) => {
                     hexdump("recv", &peer, msg);
                     c.handle_datagram(id, msg, Instant::now());
@@ -198,28 +275,78 @@ fn read_loop(
                 TcpEvent::Error(e) => tracing::warn!(%peer, "{e}"),
             });
         }
-        dispatch(core, writers, drain(core));
+        if closed {
+            self.close(id, core, poll, "closed by the peer");
+        }
     }
-    tracing::info!(%peer, conn = id.0, "TCP connection closed");
-    close(core, writers, id);
-}
 
-/// Runs the core's timers, and polls the middleware when its waker fired (samples from a threaded
-/// middleware).
-fn timer_loop(core: &SharedCore<ConnId>, writers: &Writers, stop: &AtomicBool, wake: &WakeSignal) {
-    while !stop.load(Ordering::Relaxed) {
-        let next = lock(core).poll_timeout();
-        let woken = wake.wait(block_for(next, Instant::now()));
+    fn run_core(&mut self, core: &SharedCore<ConnId>, woken: bool) {
+        let mut c = lock(core);
+        let now = Instant::now();
+        if woken {
+            c.poll_middleware(now);
+        }
+        if c.poll_timeout().is_some_and(|t| t <= now) {
+            c.handle_timeout(now);
+        }
+    }
+
+    /// Moves what the core produced into the outboxes and writes them; closes connections whose peer
+    /// stopped reading or failed.
+    fn send(&mut self, core: &SharedCore<ConnId>, poll: &Poll) {
+        let now = Instant::now();
+        let mut overflowing = Vec::new();
         {
             let mut c = lock(core);
-            let now = Instant::now();
-            if woken {
-                c.poll_middleware(now);
+            for data in self.recycle.drain(..) {
+                c.recycle(data);
             }
-            if c.poll_timeout().is_some_and(|t| t <= now) {
-                c.handle_timeout(now);
+            while let Some(Transmit { to, data }) = c.poll_transmit() {
+                match self.conns.get_mut(&to) {
+                    Some(conn) => {
+                        hexdump("send", &conn.peer, &data);
+                        if !conn.queue(data, now) && !overflowing.contains(&to) {
+                            overflowing.push(to);
+                        }
+                    }
+                    None => c.recycle(data),
+                }
             }
         }
-        dispatch(core, writers, drain(core));
+        let mut failed = Vec::new();
+        for (&id, conn) in &mut self.conns {
+            if conn.outbox.is_empty() {
+                continue;
+            }
+            if let Err(e) = conn.flush(now, &mut self.recycle) {
+                failed.push((id, format!("write failed: {e}")));
+                continue;
+            }
+            let want_writable = !conn.outbox.is_empty();
+            if want_writable != conn.writable_interest {
+                let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
+                if poll.registry().reregister(&mut conn.stream, id.token(), interest).is_ok() {
+                    conn.writable_interest = want_writable;
+                }
+            }
+        }
+        for (&id, conn) in &self.conns {
+            if overflowing.contains(&id) && conn.queued > MAX_OUTBOX_BYTES {
+                failed.push((id, format!("peer not reading: {} bytes waiting", conn.queued)));
+            } else if conn.stalled(now) {
+                failed.push((id, format!("peer took nothing for {WRITE_TIMEOUT:?}")));
+            }
+        }
+        for (id, why) in failed {
+            self.close(id, core, poll, &why);
+        }
+    }
+
+    fn close(&mut self, id: ConnId, core: &SharedCore<ConnId>, poll: &Poll, why: &str) {
+        let Some(mut conn) = self.conns.remove(&id) else { return };
+        let _ = poll.registry().deregister(&mut conn.stream);
+        let _ = conn.stream.shutdown(Shutdown::Both);
+        tracing::info!(peer = %conn.peer, conn = id.0, "TCP connection closed: {why}");
+        lock(core).forget_endpoint(id);
     }
 }
