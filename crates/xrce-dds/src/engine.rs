@@ -355,10 +355,11 @@ impl RawWriter {
         each!(self, w => w.unmatched_known_readers())
     }
 
-    /// Remote participants the writer's participant has discovered but whose endpoints it has not received
-    /// yet: it may be about to learn of readers. Only a participant created for a new name (Fast DDS) has
-    /// any for long; the agent's gate also waits for these before a new datawriter's first samples. Always 0
-    /// on RustDDS, whose discovery the agent does not see.
+    /// Remote participants whose discovery with the writer's participant is still under way (it has no
+    /// endpoint of them yet, or has not discovered them while the domain's default participant has): it may
+    /// be about to learn of readers. Only a participant created for a new name (Fast DDS) has any for long;
+    /// the agent's gate also waits for these before a new datawriter's first samples. Always 0 on RustDDS,
+    /// whose discovery the agent does not see.
     pub fn participant_in_discovery(&self) -> usize {
         match self {
             Self::Rust(_) => 0,

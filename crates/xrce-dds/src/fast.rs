@@ -292,7 +292,9 @@ impl RawWriter {
     }
 
     pub(crate) fn participant_in_discovery(&self) -> usize {
-        self.participant.participant.in_discovery()
+        let default = self.participant.default.upgrade();
+        let oracle = default.as_deref().unwrap_or(&self.participant);
+        self.participant.participant.in_discovery(&oracle.participant)
     }
 
     pub(crate) fn unmatched_known_readers(&self) -> usize {

@@ -173,15 +173,20 @@ struct Discovery : public DomainParticipantListener {
     std::mutex m;
     std::map<GUID_t, KnownReader> readers;
     std::set<GuidPrefix_t> awaiting_endpoints;
+    std::set<GuidPrefix_t> participants;  // remote ones alive, of other processes
     void on_participant_discovery(DomainParticipant* self, ParticipantDiscoveryInfo&& info) override {
         std::lock_guard<std::mutex> g(m);
         const GuidPrefix_t& p = info.info.m_guid.guidPrefix;
         if (info.status == ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
             // The agent's other participants (same host and process bytes of the prefix) are not awaited.
             const bool same_process = std::memcmp(p.value, self->guid().guidPrefix.value, 8) == 0;
-            if (!same_process) awaiting_endpoints.insert(p);
+            if (!same_process) {
+                awaiting_endpoints.insert(p);
+                participants.insert(p);
+            }
         } else if (info.status != ParticipantDiscoveryInfo::CHANGED_QOS_PARTICIPANT) {
             awaiting_endpoints.erase(p);
+            participants.erase(p);
         }
     }
     void on_publisher_discovery(DomainParticipant*, WriterDiscoveryInfo&& info) override {
@@ -359,12 +364,22 @@ int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
     XF_CATCH(-2)
 }
 
-// Remote participants `p` has discovered but has no endpoint of yet: its endpoint discovery with them is still
-// under way, so it may be about to learn of readers a new writer should not miss.
-int32_t xf_participant_in_discovery(xf_participant* p) {
+// Remote participants whose discovery with `p` is still under way, so that `p` may be about to learn of
+// readers a new writer should not miss: those `p` has discovered but has no endpoint of yet, and those
+// `oracle` (a participant that has run longer) knows and `p` has not discovered yet.
+int32_t xf_participant_in_discovery(xf_participant* p, xf_participant* oracle) {
     XF_TRY
+    std::set<GuidPrefix_t> known;
+    if (oracle != p) {
+        std::lock_guard<std::mutex> g(oracle->discovery.m);
+        known = oracle->discovery.participants;
+    }
     std::lock_guard<std::mutex> g(p->discovery.m);
-    return static_cast<int32_t>(p->discovery.awaiting_endpoints.size());
+    int32_t n = static_cast<int32_t>(p->discovery.awaiting_endpoints.size());
+    for (const auto& prefix : known) {
+        if (p->discovery.participants.count(prefix) == 0) ++n;
+    }
+    return n;
     XF_CATCH(-2)
 }
 

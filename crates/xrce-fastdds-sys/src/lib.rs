@@ -216,11 +216,13 @@ impl Participant {
         Ok(Participant(Arc::new(PInner(p))))
     }
 
-    /// Remote participants this one has discovered but has no endpoint of yet (0 on error): its endpoint
-    /// discovery with them is still under way.
-    pub fn in_discovery(&self) -> usize {
-        // SAFETY: live participant; the shim locks its discovery table.
-        usize::try_from(unsafe { ffi::xf_participant_in_discovery(self.0 .0) }).unwrap_or(0)
+    /// Remote participants whose discovery with this one is still under way (0 on error): those it has
+    /// discovered but has no endpoint of yet, and those `oracle` (another participant of the process, which
+    /// has run longer; or this one) knows and this one has not discovered yet.
+    pub fn in_discovery(&self, oracle: &Participant) -> usize {
+        // SAFETY: both participants are alive for the call (held by `self` and `oracle`); the shim locks
+        // their discovery tables one after the other.
+        usize::try_from(unsafe { ffi::xf_participant_in_discovery(self.0 .0, oracle.0 .0) }).unwrap_or(0)
     }
 
     /// The participant's GUID.

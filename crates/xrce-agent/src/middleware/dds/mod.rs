@@ -73,8 +73,9 @@
 //!   name knows nothing yet (its endpoint discovery with a ROS node takes 100–300 ms: Fast DDS' 70 ms
 //!   initial ACKNACK delay, then the peer's ~93 ms NACK response delay), so there the readers counted are
 //!   those the default participant has discovered, and the gate also waits while the writer's participant
-//!   has discovered remote participants whose endpoints have not arrived yet (a ROS node started with the
-//!   client is not known to the default participant either). Best-effort writes (PX4) are not held by the
+//!   is still in discovery with a remote participant: one it has discovered without any endpoint yet (a ROS
+//!   node started with the client is not known to the default participant either), or one the default
+//!   participant knows and it has not discovered yet (its first milliseconds). Best-effort writes (PX4) are not held by the
 //!   core: the middleware keeps them at the gate ([`HELD_AT_GATE`]) and replays them once it opens, at
 //!   twice the rate they were written (a burst would overflow a keep-last reader's history).
 //! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
