@@ -167,6 +167,14 @@ impl Replier {
         Ok(Self { reader, writer })
     }
 
+    /// Why a first reply should wait, as a count (0: none): requesters' reply readers already discovered that
+    /// the reply writer has not matched yet, and peers whose discovery with the writer's participant is
+    /// still under way (see [`RawWriter::unmatched_known_readers`], [`RawWriter::participant_in_discovery`]).
+    /// A reply written before its requester's reader matched is lost: the reader is volatile.
+    pub fn unmatched_known_requesters(&self) -> usize {
+        self.writer.unmatched_known_readers() + self.writer.participant_in_discovery()
+    }
+
     /// QoS of the reply writer for a replier described with `qos`.
     pub fn reply_qos(qos: &EndpointQos) -> EndpointQos {
         EndpointQos {

@@ -211,8 +211,11 @@ where
                 _ => None,
             };
             let Some(id) = object else { continue };
-            // Requesters too: their request writer has a first-contact gate like a datawriter's.
-            if !matches!(id.kind(), ObjectKind::DataWriter | ObjectKind::Requester) || writers.contains(&Some(id)) {
+            // Requesters and repliers too: their request or reply writer has a first-contact gate like a
+            // datawriter's.
+            if !matches!(id.kind(), ObjectKind::DataWriter | ObjectKind::Requester | ObjectKind::Replier)
+                || writers.contains(&Some(id))
+            {
                 continue;
             }
             if let Some(slot) = writers.get_mut(n) {

@@ -457,13 +457,15 @@ impl Dds {
         self.held.insert(writer, held);
     }
 
-    /// Whether `entity` (a datawriter or requester) may write as far as its first-contact gate goes; opens
-    /// (forgets) the gate once its DDS writer matched every reader known on its topic, or at its deadline.
+    /// Whether `entity` (a datawriter, requester or replier) may write as far as its first-contact gate goes;
+    /// opens (forgets) the gate once its DDS writer matched every reader known on its topic, or at its
+    /// deadline.
     fn gate_open(&mut self, entity: EntityRef) -> bool {
         let Some(&deadline) = self.gates.get(&entity) else { return true };
         let unmatched = match self.entities.get(&entity).map(|n| &n.handle) {
             Some(Handle::Writer(w)) => w.writer.unmatched_known_readers() + w.writer.participant_in_discovery(),
             Some(Handle::Requester(r)) => r.unmatched_known_repliers() + usize::from(r.matched_repliers() == 0),
+            Some(Handle::Replier(r)) => r.unmatched_known_requesters(),
             _ => 0,
         };
         let now = Instant::now();
@@ -738,7 +740,7 @@ impl Middleware for Dds {
         }
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
-        if matches!(node.handle, Handle::Writer(_)) {
+        if matches!(node.handle, Handle::Writer(_) | Handle::Replier(_)) {
             self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE);
         } else if matches!(node.handle, Handle::Requester(_)) {
             self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE_REQUESTER);
