@@ -268,6 +268,7 @@ Example: xrce-agent udp4 -p 8888 -m ced -v6";
 #[derive(Debug, Parser)]
 #[command(
     name = "xrce-agent",
+    version,
     about = "DDS-XRCE agent, a drop-in replacement for eProsima's MicroXRCEAgent",
     subcommand_required = true,
     arg_required_else_help = true,
@@ -659,6 +660,9 @@ mod tests {
         assert!(!ok("udp4 -p 1 --eager-participant off").eager_participant);
         assert!(parse("udp4 -p 1 --eager-participant maybe").is_err());
         assert!(ok("udp4 -p 1").participant_names);
+        let version = parse_from(["xrce-agent", "--version"]).unwrap_err();
+        assert_eq!(version.kind(), clap::error::ErrorKind::DisplayVersion);
+        assert!(version.to_string().contains(env!("CARGO_PKG_VERSION")), "{version}");
         assert!(!ok("udp4 -p 1 --participant-names off").participant_names);
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
