@@ -7,6 +7,7 @@
 //! `E` is whatever identifies a peer for the shell (a socket address, a connection id).
 
 pub mod config;
+pub mod droplog;
 pub mod object;
 pub mod probe;
 pub mod read;
@@ -78,6 +79,8 @@ pub struct AgentCore<E, M> {
     scratch: Vec<Vec<u8>>,
     heartbeat_due: Option<Instant>,
     /// Tail-loss probe timers of the reliable output streams.
+    /// Rate limit of the warnings about bad input, per peer.
+    drop_log: droplog::DropLog<E>,
     probes: probe::ProbeTimers,
     pump_needed: bool,
     /// Datagrams were handled since the last pump: samples are delivered (and held-back input retried) once
@@ -134,6 +137,7 @@ where
             scratch: Vec::new(),
             heartbeat_due: None,
             probes: probe::ProbeTimers::default(),
+            drop_log: droplog::DropLog::default(),
             pump_needed: false,
             pump_deferred: false,
             writes_since_pump: 0,

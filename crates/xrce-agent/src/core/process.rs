@@ -49,6 +49,15 @@ where
     E: Copy + Eq + Hash + Debug,
     M: Middleware,
 {
+    /// [`DropLog::admit`](super::droplog::DropLog::admit) for a peer that may be unknown (always warned
+    /// about then).
+    fn admit_drop_log(&mut self, peer: Option<E>, now: Instant) -> Option<u64> {
+        match peer {
+            Some(p) => self.drop_log.admit(p, now),
+            None => Some(0),
+        }
+    }
+
     fn drop_datagram(&mut self) {
         self.stats.datagrams_dropped = self.stats.datagrams_dropped.saturating_add(1);
     }
@@ -57,7 +66,9 @@ where
         let header = match MessageHeader::decode(bytes) {
             Ok((h, _)) => h,
             Err(e) => {
-                tracing::warn!(peer = ?from, len = bytes.len(), "dropping message: bad header: {e}");
+                if let Some(held_back) = self.drop_log.admit(from, now) {
+                    tracing::warn!(peer = ?from, len = bytes.len(), held_back, "dropping message: bad header: {e}");
+                }
                 self.drop_datagram();
                 return;
             }
@@ -269,7 +280,9 @@ where
             let decoded = match raw.decode() {
                 Ok(d) => d,
                 Err(e) => {
-                    tracing::warn!(peer = ?from, id = raw.header.id, "dropping submessage: {e}");
+                    if let Some(held_back) = self.drop_log.admit(from, now) {
+                        tracing::warn!(peer = ?from, id = raw.header.id, held_back, "dropping submessage: {e}");
+                    }
                     self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
                     break;
                 }
@@ -430,7 +443,9 @@ where
                 Ok(r) => r,
                 Err(e) => {
                     let peer = self.clients.get(&key).and_then(|c| c.endpoint);
-                    tracing::warn!(?peer, client = %key, "submessage length past the end: {e}");
+                    if let Some(held_back) = self.admit_drop_log(peer, now) {
+                        tracing::warn!(?peer, client = %key, held_back, "submessage length past the end: {e}");
+                    }
                     self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
                     break;
                 }
@@ -439,7 +454,9 @@ where
                 Ok(sub) => self.handle_submessage(key, &header, msg, stream, &raw, sub, now, nested),
                 Err(e) => {
                     let peer = self.clients.get(&key).and_then(|c| c.endpoint);
-                    tracing::warn!(?peer, client = %key, id = raw.header.id, "undecodable submessage: {e}");
+                    if let Some(held_back) = self.admit_drop_log(peer, now) {
+                        tracing::warn!(?peer, client = %key, id = raw.header.id, held_back, "undecodable submessage: {e}");
+                    }
                     self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
                     self.answer_undecodable(key, stream, &raw);
                     Flow::Stop

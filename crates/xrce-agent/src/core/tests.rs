@@ -82,3 +82,34 @@ fn acknacks_can_be_taken_before_the_batch_is_delivered() {
     assert!(core.poll_acknack().is_none(), "one ACKNACK per stream");
     assert_eq!(acknacks(&mut core), vec![], "and it is not sent twice");
 }
+
+/// 2,000 garbage datagrams from one peer give one warning, then one per second with the count held back;
+/// another peer gets its own.
+#[test]
+fn garbage_from_one_peer_is_warned_about_once_per_second() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::time::Duration;
+    use tracing_subscriber::layer::SubscriberExt;
+
+    struct CountWarnings(Arc<AtomicUsize>);
+    impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for CountWarnings {
+        fn on_event(&self, e: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
+            if *e.metadata().level() == tracing::Level::WARN {
+                self.0.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+    let warnings = Arc::new(AtomicUsize::new(0));
+    let subscriber = tracing_subscriber::registry().with(CountWarnings(warnings.clone()));
+    let mut core = core_with(CoreConfig::default());
+    let t0 = Instant::now();
+    tracing::subscriber::with_default(subscriber, || {
+        for i in 0..2000u64 {
+            core.handle_datagram(9, &[0xFF], t0 + Duration::from_micros(i * 100));
+        }
+        core.handle_datagram(9, &[0xFF], t0 + Duration::from_secs(1));
+        core.handle_datagram(10, &[0xFF], t0);
+    });
+    assert_eq!(warnings.load(Ordering::Relaxed), 3, "first, one a second later, and the other peer's");
+    assert_eq!(core.stats().datagrams_dropped, 2002, "every datagram is still dropped and counted");
+}

@@ -36,18 +36,34 @@ const WAKER: Token = Token(1);
 /// Connection tokens are `FIRST_CONN + ConnId`.
 const FIRST_CONN: usize = 2;
 
-/// Identifies a TCP connection to the core.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ConnId(pub u64);
+/// Identifies a TCP connection to the core: the peer's address and a number unique to the server (a peer
+/// that reconnects from the same address is another connection). Logs show it as `address#number`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ConnId {
+    /// Number of the connection, from 1 in accept order.
+    pub number: u64,
+    /// The peer's address.
+    pub peer: SocketAddr,
+}
 
-impl ConnId {
-    fn token(self) -> Token {
-        Token(usize::try_from(self.0).unwrap_or(usize::MAX).saturating_add(FIRST_CONN))
+impl std::fmt::Debug for ConnId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}#{}", self.peer, self.number)
     }
+}
 
-    fn of(token: Token) -> Option<Self> {
-        token.0.checked_sub(FIRST_CONN).and_then(|n| u64::try_from(n).ok()).map(Self)
+impl std::fmt::Display for ConnId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(self, f)
     }
+}
+
+fn token(number: u64) -> Token {
+    Token(usize::try_from(number).unwrap_or(usize::MAX).saturating_add(FIRST_CONN))
+}
+
+fn number_of(token: Token) -> Option<u64> {
+    token.0.checked_sub(FIRST_CONN).and_then(|n| u64::try_from(n).ok())
 }
 
 /// A TCP server around a shared core.
@@ -62,6 +78,7 @@ pub struct TcpServer {
 /// One connection: its socket, the reassembly of what it sends and the framed messages waiting to go out.
 struct Conn {
     stream: TcpStream,
+    id: ConnId,
     peer: SocketAddr,
     decoder: TcpDecoder<Vec<u8>>,
     /// Length prefixes and messages, in order; the front one is `sent` bytes into its prefix + message.
@@ -182,9 +199,9 @@ impl TcpServer {
                     LISTENER => looped.accept(&listener, &poll),
                     WAKER => woken = true,
                     token => {
-                        let Some(id) = ConnId::of(token) else { continue };
+                        let Some(number) = number_of(token) else { continue };
                         if event.is_readable() || event.is_read_closed() || event.is_error() {
-                            looped.read(id, &self.core, &poll);
+                            looped.read(number, &self.core, &poll);
                         }
                     }
                 }
@@ -201,7 +218,8 @@ impl TcpServer {
 
 /// The event loop's state.
 struct Loop {
-    conns: HashMap<ConnId, Conn>,
+    /// By connection number.
+    conns: HashMap<u64, Conn>,
     next_id: u64,
     buf: Vec<u8>,
     /// Message buffers written out, handed back to the core for reuse.
@@ -224,16 +242,17 @@ impl Loop {
                 tracing::warn!(%peer, "too many TCP connections, refusing");
                 continue;
             }
-            let id = ConnId(self.next_id);
+            let id = ConnId { number: self.next_id, peer };
             self.next_id += 1;
             let _ = stream.set_nodelay(true);
-            if let Err(e) = poll.registry().register(&mut stream, id.token(), Interest::READABLE) {
+            if let Err(e) = poll.registry().register(&mut stream, token(id.number), Interest::READABLE) {
                 tracing::warn!(%peer, "cannot serve TCP connection: {e}");
                 continue;
             }
-            tracing::info!(%peer, conn = id.0, "TCP connection accepted");
+            tracing::info!(conn = %id, "TCP connection accepted");
             let conn = Conn {
                 stream,
+                id,
                 peer,
                 decoder: TcpDecoder::new(vec![0u8; MAX_MESSAGE_LEN]),
                 outbox: VecDeque::new(),
@@ -242,13 +261,14 @@ impl Loop {
                 progress_at: Instant::now(),
                 writable_interest: false,
             };
-            self.conns.insert(id, conn);
+            self.conns.insert(id.number, conn);
         }
     }
 
     /// Reads what `id` has sent and hands every complete message to the core.
-    fn read(&mut self, id: ConnId, core: &SharedCore<ConnId>, poll: &Poll) {
-        let Some(conn) = self.conns.get_mut(&id) else { return };
+    fn read(&mut self, number: u64, core: &SharedCore<ConnId>, poll: &Poll) {
+        let Some(conn) = self.conns.get_mut(&number) else { return };
+        let id = conn.id;
         let mut closed = false;
         loop {
             let n = match conn.stream.read(&mut self.buf) {
@@ -276,7 +296,7 @@ impl Loop {
             });
         }
         if closed {
-            self.close(id, core, poll, "closed by the peer");
+            self.close(number, core, poll, "closed by the peer");
         }
     }
 
@@ -302,11 +322,11 @@ impl Loop {
                 c.recycle(data);
             }
             while let Some(Transmit { to, data }) = c.poll_transmit() {
-                match self.conns.get_mut(&to) {
+                match self.conns.get_mut(&to.number) {
                     Some(conn) => {
                         hexdump("send", &conn.peer, &data);
-                        if !conn.queue(data, now) && !overflowing.contains(&to) {
-                            overflowing.push(to);
+                        if !conn.queue(data, now) && !overflowing.contains(&to.number) {
+                            overflowing.push(to.number);
                         }
                     }
                     None => c.recycle(data),
@@ -314,39 +334,53 @@ impl Loop {
             }
         }
         let mut failed = Vec::new();
-        for (&id, conn) in &mut self.conns {
+        for (&number, conn) in &mut self.conns {
             if conn.outbox.is_empty() {
                 continue;
             }
             if let Err(e) = conn.flush(now, &mut self.recycle) {
-                failed.push((id, format!("write failed: {e}")));
+                failed.push((number, format!("write failed: {e}")));
                 continue;
             }
             let want_writable = !conn.outbox.is_empty();
             if want_writable != conn.writable_interest {
                 let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
-                if poll.registry().reregister(&mut conn.stream, id.token(), interest).is_ok() {
+                if poll.registry().reregister(&mut conn.stream, token(number), interest).is_ok() {
                     conn.writable_interest = want_writable;
                 }
             }
         }
-        for (&id, conn) in &self.conns {
-            if overflowing.contains(&id) && conn.queued > MAX_OUTBOX_BYTES {
-                failed.push((id, format!("peer not reading: {} bytes waiting", conn.queued)));
+        for (&number, conn) in &self.conns {
+            if overflowing.contains(&number) && conn.queued > MAX_OUTBOX_BYTES {
+                failed.push((number, format!("peer not reading: {} bytes waiting", conn.queued)));
             } else if conn.stalled(now) {
-                failed.push((id, format!("peer took nothing for {WRITE_TIMEOUT:?}")));
+                failed.push((number, format!("peer took nothing for {WRITE_TIMEOUT:?}")));
             }
         }
-        for (id, why) in failed {
-            self.close(id, core, poll, &why);
+        for (number, why) in failed {
+            self.close(number, core, poll, &why);
         }
     }
 
-    fn close(&mut self, id: ConnId, core: &SharedCore<ConnId>, poll: &Poll, why: &str) {
-        let Some(mut conn) = self.conns.remove(&id) else { return };
+    fn close(&mut self, number: u64, core: &SharedCore<ConnId>, poll: &Poll, why: &str) {
+        let Some(mut conn) = self.conns.remove(&number) else { return };
         let _ = poll.registry().deregister(&mut conn.stream);
         let _ = conn.stream.shutdown(Shutdown::Both);
-        tracing::info!(peer = %conn.peer, conn = id.0, "TCP connection closed: {why}");
-        lock(core).forget_endpoint(id);
+        tracing::info!(conn = %conn.id, "TCP connection closed: {why}");
+        lock(core).forget_endpoint(conn.id);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn connections_are_logged_by_address_and_number() {
+        let id = ConnId { number: 3, peer: "127.0.0.1:40000".parse().unwrap() };
+        assert_eq!(format!("{id:?}"), "127.0.0.1:40000#3");
+        assert_eq!(id.to_string(), "127.0.0.1:40000#3");
+        assert_eq!(number_of(token(id.number)), Some(3));
+        assert_eq!(number_of(WAKER), None);
     }
 }
