@@ -29,7 +29,12 @@ fn info(request: [u8; 2], locators: &[([u8; 4], u16)]) -> Vec<u8> {
 
 /// An agent answering every GET_INFO with `locators`; returns its address.
 fn agent(locators: Vec<([u8; 4], u16)>) -> SocketAddr {
-    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    agent_on("127.0.0.1:0", locators)
+}
+
+/// The same, bound to `bind`.
+fn agent_on(bind: &str, locators: Vec<([u8; 4], u16)>) -> SocketAddr {
+    let socket = UdpSocket::bind(bind).unwrap();
     let addr = socket.local_addr().unwrap();
     socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     std::thread::spawn(move || {
@@ -100,4 +105,29 @@ fn discovery_without_answers_runs_every_round() {
     assert_eq!(&buf[4..6], &[0x02, 0x01], "a GET_INFO");
     assert_eq!(&buf[8..10], &[0x00, 0x09], "with the discovery request id");
     assert_eq!(n, 16);
+}
+
+/// An IPv6 agent listed after an IPv4 address that never answers is found: both sockets are listened to
+/// during the period (the IPv4 one used to be read until the deadline, the IPv6 one never).
+#[test]
+fn discovery_finds_an_ipv6_agent_beside_a_silent_ipv4_one() {
+    if UdpSocket::bind("[::1]:0").is_err() {
+        eprintln!("no IPv6 loopback here: skipped");
+        return;
+    }
+    let silent = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let v6 = agent_on("[::1]:0", vec![]);
+    let mut found = Vec::new();
+    let stopped = discovery::discovery_agents(
+        1,
+        300,
+        |agent| {
+            found.push(agent);
+            true
+        },
+        &[silent.local_addr().unwrap(), v6],
+    )
+    .unwrap();
+    assert!(stopped, "the IPv6 agent answered within the period");
+    assert_eq!(found, vec![v6]);
 }

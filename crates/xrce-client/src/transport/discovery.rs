@@ -15,6 +15,8 @@ use crate::session::ping::{encode_get_info, parse_info, GET_INFO_LEN};
 pub const MULTICAST_GROUP: Ipv4Addr = Ipv4Addr::new(239, 255, 0, 2);
 /// Default discovery port.
 pub const DISCOVERY_PORT: u16 = 7400;
+/// How long one socket is listened to before the other, when discovery uses an IPv4 and an IPv6 socket.
+const LISTEN_TURN: Duration = Duration::from_millis(10);
 /// The C client keeps only the first locators of an answer.
 const MAX_LOCATORS: usize = 4;
 
@@ -51,16 +53,23 @@ pub fn discovery_agents(
             let _ = s.send_to(request, agent);
         }
         let deadline = Instant::now() + period;
-        for s in [Some(&socket), socket6.as_ref()].into_iter().flatten() {
-            loop {
-                let left = deadline.saturating_duration_since(Instant::now());
-                if left.is_zero() {
-                    break;
-                }
-                s.set_read_timeout(Some(left))?;
-                let Ok((len, from)) = s.recv_from(&mut buf) else { break };
-                if found(buf.get(..len).unwrap_or(&[]), from, &mut on_agent) {
-                    return Ok(true);
+        // With both sockets, each is listened to in turns of LISTEN_TURN, so answers to either arrive while
+        // the period lasts (the IPv4 socket used to be read until the deadline, the IPv6 one never).
+        let turn = if socket6.is_some() { LISTEN_TURN } else { period };
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            for s in [Some(&socket), socket6.as_ref()].into_iter().flatten() {
+                s.set_read_timeout(Some(left.min(turn).max(Duration::from_millis(1))))?;
+                while let Ok((len, from)) = s.recv_from(&mut buf) {
+                    if found(buf.get(..len).unwrap_or(&[]), from, &mut on_agent) {
+                        return Ok(true);
+                    }
+                    if Instant::now() >= deadline {
+                        break;
+                    }
                 }
             }
         }
