@@ -226,13 +226,15 @@ fn keyed_samples_from_the_xrce_client_are_distinct_instances_for_cyclone() {
 /// DDS participant exists from the agent's start (`--eager-participant`), so it knows the reader when the
 /// writer is created; the first-contact gate holds the burst until the writer has matched it. Without the
 /// gate the first samples (written in the 20–35 ms before RustDDS matched the known reader) are skipped for
-/// the reader: the writer is volatile, as micro-ROS's default.
+/// the reader: the writer is volatile, as micro-ROS's default. Run with `--participant-names off`, where the
+/// client's writer lives in that default participant: with a participant per name, the new participant's
+/// discovery with Cyclone sometimes outlasts the gate (1 run in ~10; docs/dds-engine.md, known limits).
 #[test]
 #[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
 fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
     const PORT: u16 = 18_904;
     const COUNT: u32 = 10;
-    let _agent = AgentProcess::start(PORT);
+    let _agent = AgentProcess::start_with(PORT, &["--participant-names", "off"]);
     let cyc = spawn(python("hello_cyclone.py", &["sub", "20", &COUNT.to_string()]));
     // Discovery between the running reader and the agent's participant completes meanwhile.
     std::thread::sleep(Duration::from_millis(1500));
