@@ -50,9 +50,25 @@ pub enum AgentError {
     /// The refs file could not be loaded.
     #[error(transparent)]
     Profile(#[from] crate::profile::ProfileError),
+    /// A port or device could not be opened; `what` names it ("UDP port 0.0.0.0:8888", "serial device
+    /// /dev/ttyACM0").
+    #[error("{what}: {source}")]
+    Open {
+        /// The port or device.
+        what: String,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
     /// Socket or thread error.
     #[error(transparent)]
     Io(#[from] std::io::Error),
+}
+
+/// An [`AgentError::Open`] naming `what`.
+fn cannot_open(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> AgentError {
+    let what = what.into();
+    move |source| AgentError::Open { what, source }
 }
 
 fn to_graph_mode(g: cli::RosGraph) -> RosGraphMode {
@@ -308,7 +324,7 @@ impl AgentInstance {
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
-                let server = UdpServer::bind(addr, agent.core())?;
+                let server = UdpServer::bind(addr, agent.core()).map_err(cannot_open(format!("UDP port {addr}")))?;
                 let local = server.local_addr()?;
                 tracing::info!(%local, middleware = kind.name(), "UDP agent running");
                 let stop2 = stop.clone();
@@ -324,7 +340,7 @@ impl AgentInstance {
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
-                let server = TcpServer::bind(addr, agent.core())?;
+                let server = TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
                 let local = server.local_addr()?;
                 tracing::info!(%local, middleware = kind.name(), "TCP agent running");
                 let stop2 = stop.clone();
@@ -333,20 +349,25 @@ impl AgentInstance {
             }
             #[cfg(target_os = "linux")]
             Transport::Serial { ref device, baudrate } => {
-                let line = crate::transport::serial::Line::open(Path::new(device), baudrate)?;
+                let line = crate::transport::serial::Line::open(Path::new(device), baudrate)
+                    .map_err(cannot_open(format!("serial device {device}")))?;
                 start_serial(kind, &config, vec![line], &stop)?
             }
             #[cfg(target_os = "linux")]
             Transport::MultiSerial { ref devices, baudrate } => {
                 let lines = devices
                     .iter()
-                    .map(|d| crate::transport::serial::Line::open(Path::new(d), baudrate))
+                    .map(|d| {
+                        crate::transport::serial::Line::open(Path::new(d), baudrate)
+                            .map_err(cannot_open(format!("serial device {d}")))
+                    })
                     .collect::<Result<Vec<_>, _>>()?;
                 start_serial(kind, &config, lines, &stop)?
             }
             #[cfg(target_os = "linux")]
             Transport::PseudoTerminal { baudrate } => {
-                let line = crate::transport::serial::Line::pseudoterminal(baudrate)?;
+                let line =
+                    crate::transport::serial::Line::pseudoterminal(baudrate).map_err(cannot_open("pseudoterminal"))?;
                 // eProsima's message; scripts read the device name from it.
                 println!("Pseudo-Serial device opened at {}", line.name());
                 start_serial(kind, &config, vec![line], &stop)?

@@ -365,3 +365,18 @@ fn throughput_udp_best_effort_64b() {
     );
     instance.stop().unwrap();
 }
+
+/// Errors name what could not be opened: a busy port, a missing serial device.
+#[test]
+fn errors_name_the_port_or_device() {
+    let fails = |args: &[&str]| match AgentInstance::create(args.iter().copied()) {
+        Ok(_) => panic!("{args:?} started"),
+        Err(e) => e.to_string(),
+    };
+    let busy = UdpSocket::bind("0.0.0.0:0").unwrap();
+    let port = busy.local_addr().unwrap().port().to_string();
+    let err = fails(&["xrce-agent", "udp4", "-p", &port, "-m", "ced"]);
+    assert!(err.contains(&format!("UDP port 0.0.0.0:{port}")), "{err}");
+    let err = fails(&["xrce-agent", "serial", "--dev", "/nonexistent/ttyXRCE", "-m", "ced"]);
+    assert!(err.contains("serial device /nonexistent/ttyXRCE"), "{err}");
+}
