@@ -146,6 +146,12 @@ fn tcp_frame(m: &[u8]) -> Vec<u8> {
     v
 }
 
+/// Takes the next whole length-prefixed message off the front of `pending`, if there is one.
+fn next_frame(pending: &mut Vec<u8>) -> Option<Vec<u8>> {
+    let len = usize::from(u16::from_le_bytes([*pending.first()?, *pending.get(1)?]));
+    (pending.len() >= 2 + len).then(|| pending.drain(..2 + len).skip(2).collect())
+}
+
 /// Reads framed messages until `pred` holds or 5 s pass.
 fn tcp_wait(stream: &mut TcpStream, got: &mut Vec<Out>, pending: &mut Vec<u8>, pred: impl Fn(&[Out]) -> bool) -> bool {
     let end = Instant::now() + Duration::from_secs(5);
@@ -157,12 +163,7 @@ fn tcp_wait(stream: &mut TcpStream, got: &mut Vec<Out>, pending: &mut Vec<u8>, p
             }
             pending.extend_from_slice(&buf[..n]);
         }
-        while pending.len() >= 2 {
-            let len = u16::from_le_bytes([pending[0], pending[1]]) as usize;
-            if pending.len() < 2 + len {
-                break;
-            }
-            let msg: Vec<u8> = pending.drain(..2 + len).skip(2).collect();
+        while let Some(msg) = next_frame(pending) {
             let (h, subs) = decode_owned(&msg);
             if h.stream_id.0 == 0x80 {
                 let seq = h.sequence_nr + 1;
@@ -248,12 +249,7 @@ fn count_data(mut stream: TcpStream, until: Instant) -> (u64, Duration) {
             Err(_) => continue,
         };
         pending.extend_from_slice(&buf[..n]);
-        while pending.len() >= 2 {
-            let len = u16::from_le_bytes([pending[0], pending[1]]) as usize;
-            if pending.len() < 2 + len {
-                break;
-            }
-            let msg: Vec<u8> = pending.drain(..2 + len).skip(2).collect();
+        while let Some(msg) = next_frame(&mut pending) {
             let (_, subs) = decode_owned(&msg);
             let data = subs.iter().filter(|o| matches!(o, Out::Data { .. })).count() as u64;
             if data > 0 {

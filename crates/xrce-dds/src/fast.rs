@@ -291,16 +291,17 @@ impl RawWriter {
         self.writer.guid().v
     }
 
+    /// The participant that knows the most of the domain: the default one, else the writer's own.
+    fn oracle(&self) -> Arc<ParticipantInner> {
+        self.participant.default.upgrade().unwrap_or_else(|| Arc::clone(&self.participant))
+    }
+
     pub(crate) fn participant_in_discovery(&self) -> usize {
-        let default = self.participant.default.upgrade();
-        let oracle = default.as_deref().unwrap_or(&self.participant);
-        self.participant.participant.in_discovery(&oracle.participant)
+        self.participant.participant.in_discovery(&self.oracle().participant)
     }
 
     pub(crate) fn unmatched_known_readers(&self) -> usize {
-        let default = self.participant.default.upgrade();
-        let oracle = default.as_deref().unwrap_or(&self.participant);
-        self.writer.unmatched_known(&oracle.participant)
+        self.writer.unmatched_known(&self.oracle().participant)
     }
 
     pub(crate) fn matched_readers(&self) -> usize {

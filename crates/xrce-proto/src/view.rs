@@ -151,8 +151,8 @@ impl RequestHead {
         self.with_length(self.payload_len().unwrap_or(0))
     }
 
-    /// The head's bytes with the submessage length `length` as given (the caller checked [`Self::payload_len`]).
-    pub const fn with_length(&self, length: u16) -> [u8; Self::SIZE] {
+    /// The head's bytes with the submessage length `length` as given.
+    const fn with_length(&self, length: u16) -> [u8; Self::SIZE] {
         let [l0, l1] = length.to_le_bytes();
         let [r0, r1, o0, o1] = self.request.to_bytes();
         [self.id.as_u8(), self.flags | flag::ENDIANNESS, l0, l1, r0, r1, o0, o1]

@@ -46,6 +46,21 @@ pub fn block_for(next: Option<Instant>, now: Instant) -> Duration {
     next.map_or(MAX_BLOCK, |t| t.saturating_duration_since(now)).clamp(Duration::from_millis(1), MAX_BLOCK)
 }
 
+/// The work a shell's turn owes the core besides input: polls the middleware if its waker fired, runs the
+/// timers that are due.
+pub fn run_due<E, M>(core: &mut AgentCore<E, M>, woken: bool, now: Instant)
+where
+    E: Copy + Eq + std::hash::Hash + std::fmt::Debug,
+    M: Middleware,
+{
+    if woken {
+        core.poll_middleware(now);
+    }
+    if core.poll_timeout().is_some_and(|t| t <= now) {
+        core.handle_timeout(now);
+    }
+}
+
 /// Logs a message in hex at trace level (verbosity 6), as eProsima's agent does.
 pub fn hexdump(direction: &str, peer: &dyn std::fmt::Debug, bytes: &[u8]) {
     if tracing::enabled!(tracing::Level::TRACE) {

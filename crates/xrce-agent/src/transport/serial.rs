@@ -17,7 +17,7 @@ use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::termios::{self, BaudRate, SetArg};
 use xrce_proto::framing::serial::{encode_frame, max_encoded_len, AddressFilter, Event, FrameDecoder};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore, WakeSignal, MAX_BLOCK};
+use super::{anchor_wall_clock, block_for, hexdump, lock, run_due, SharedCore, WakeSignal, MAX_BLOCK};
 use crate::core::Transmit;
 
 /// The agent's address on serial lines (eProsima's).
@@ -294,16 +294,7 @@ fn timer_loop(
     while !stop.load(Ordering::Relaxed) {
         let next = lock(core).poll_timeout();
         let woken = wake.wait(block_for(next, Instant::now()));
-        {
-            let mut c = lock(core);
-            let now = Instant::now();
-            if woken {
-                c.poll_middleware(now);
-            }
-            if c.poll_timeout().is_some_and(|t| t <= now) {
-                c.handle_timeout(now);
-            }
-        }
+        run_due(&mut lock(core), woken, Instant::now());
         dispatch(core, writers, names);
     }
 }

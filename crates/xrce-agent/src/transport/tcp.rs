@@ -17,7 +17,7 @@ use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token};
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, SharedCore};
+use super::{anchor_wall_clock, block_for, hexdump, lock, run_due, SharedCore};
 use crate::core::Transmit;
 
 /// Most simultaneous connections; more are closed on accept.
@@ -79,7 +79,6 @@ pub struct TcpServer {
 struct Conn {
     stream: TcpStream,
     id: ConnId,
-    peer: SocketAddr,
     decoder: TcpDecoder<Vec<u8>>,
     /// Length prefixes and messages, in order; the front one is `sent` bytes into its prefix + message.
     outbox: VecDeque<([u8; 2], Vec<u8>)>,
@@ -93,7 +92,7 @@ struct Conn {
 impl Conn {
     fn queue(&mut self, data: Vec<u8>, now: Instant) -> bool {
         let Ok(head) = prefix(data.len()) else {
-            tracing::warn!(peer = %self.peer, len = data.len(), "message too large for TCP framing");
+            tracing::warn!(conn = %self.id, len = data.len(), "message too large for TCP framing");
             return true;
         };
         if self.outbox.is_empty() {
@@ -206,7 +205,7 @@ impl TcpServer {
                     }
                 }
             }
-            looped.run_core(&self.core, woken);
+            run_due(&mut lock(&self.core), woken, Instant::now());
             looped.send(&self.core, &poll);
         }
         for (_, conn) in looped.conns.drain() {
@@ -253,7 +252,6 @@ impl Loop {
             let conn = Conn {
                 stream,
                 id,
-                peer,
                 decoder: TcpDecoder::new(vec![0u8; MAX_MESSAGE_LEN]),
                 outbox: VecDeque::new(),
                 sent: 0,
@@ -280,12 +278,12 @@ impl Loop {
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => {
-                    tracing::debug!(peer = %conn.peer, "TCP read failed: {e}");
+                    tracing::debug!(conn = %conn.id, "TCP read failed: {e}");
                     closed = true;
                     break;
                 }
             };
-            let peer = conn.peer;
+            let peer = conn.id;
             let mut c = lock(core);
             conn.decoder.push(self.buf.get(..n).unwrap_or(&[]), |event| match event {
                 TcpEvent::Message(msg) => {
@@ -297,17 +295,6 @@ impl Loop {
         }
         if closed {
             self.close(number, core, poll, "closed by the peer");
-        }
-    }
-
-    fn run_core(&mut self, core: &SharedCore<ConnId>, woken: bool) {
-        let mut c = lock(core);
-        let now = Instant::now();
-        if woken {
-            c.poll_middleware(now);
-        }
-        if c.poll_timeout().is_some_and(|t| t <= now) {
-            c.handle_timeout(now);
         }
     }
 
@@ -324,7 +311,7 @@ impl Loop {
             while let Some(Transmit { to, data }) = c.poll_transmit() {
                 match self.conns.get_mut(&to.number) {
                     Some(conn) => {
-                        hexdump("send", &conn.peer, &data);
+                        hexdump("send", &conn.id, &data);
                         if !conn.queue(data, now) && !overflowing.contains(&to.number) {
                             overflowing.push(to.number);
                         }

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use socket2::{Domain, Protocol, Socket, Type};
 
 use super::batch::{RecvBatch, SendBatch};
-use super::{anchor_wall_clock, block_for, hexdump, install_udp_waker, lock, SharedCore, WakeFlag};
+use super::{anchor_wall_clock, block_for, hexdump, install_udp_waker, lock, run_due, SharedCore, WakeFlag};
 use crate::core::Transmit;
 
 /// Largest datagram received (eProsima's agent buffer).
@@ -119,13 +119,7 @@ impl UdpServer {
                         core.recycle(t.data);
                     }
                 }
-                if self.wake.take() {
-                    core.poll_middleware(now);
-                }
-                let next = core.poll_timeout();
-                if next.is_some_and(|t| t <= now) {
-                    core.handle_timeout(now);
-                }
+                run_due(&mut core, self.wake.take(), now);
                 while let Some(t) = core.poll_transmit() {
                     out.push(t);
                 }
