@@ -10,6 +10,7 @@
 mod netns;
 use netns::AgentProcess;
 
+use std::io::BufRead;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -235,9 +236,13 @@ fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
     const PORT: u16 = 18_904;
     const COUNT: u32 = 10;
     let _agent = AgentProcess::start_with(PORT, &["--participant-names", "off"]);
-    let cyc = spawn(python("hello_cyclone.py", &["sub", "20", &COUNT.to_string()]));
-    // Discovery between the running reader and the agent's participant completes meanwhile.
-    std::thread::sleep(Duration::from_millis(1500));
+    let mut cyc = spawn(own_python("burst_reader.py", &["30", &COUNT.to_string()]));
+    // The reader is running once Cyclone has discovered the agent's participant (Python may take seconds to
+    // start on a loaded machine: a fixed sleep was not enough); the agent's side of that discovery meanwhile.
+    let mut lines = std::io::BufReader::new(cyc.stdout.take().expect("stdout")).lines();
+    let ready = lines.next().and_then(Result::ok).unwrap_or_default();
+    assert_eq!(ready, "ready", "the Cyclone reader saw the agent's participant");
+    std::thread::sleep(Duration::from_millis(500));
     let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &PORT.to_string()).expect("udp");
     let mut out_buf = [0u8; BUF * 2];
     let mut in_buf = [0u8; BUF];
@@ -267,13 +272,12 @@ fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
     }
     let confirmed = session.run_session_until_confirm_delivery(3000).expect("run");
     let held_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let (_, stdout) = finish(cyc, "cyclone sub");
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    finish(cyc, "cyclone sub");
+    println!("{}", rest.join("\n"));
     let _ = session.delete_session();
-    let indices: Vec<u32> = stdout
-        .lines()
-        .filter(|l| l.starts_with("cyclone-py received:"))
-        .filter_map(|l| l.split("index=").nth(1)?.split(|c: char| !c.is_ascii_digit()).next()?.parse().ok())
-        .collect();
+    let indices: Vec<u32> =
+        rest.iter().filter_map(|l| l.strip_prefix("received index=")?.trim().parse().ok()).collect();
     println!("burst confirmed={confirmed} in {held_ms:.1} ms; Cyclone received indices {indices:?}");
     assert!(confirmed, "the agent acknowledged the burst");
     assert_eq!(indices, (1..=COUNT).collect::<Vec<_>>(), "every sample of the burst, in order");
