@@ -63,6 +63,8 @@ pub struct CoreStats {
     pub middleware_polls: u64,
     /// Tail-loss probes sent: HEARTBEATs ahead of the period ([`probe`]).
     pub tail_probes: u64,
+    /// Samples from best-effort streams the middleware could not take (a full DDS history), dropped.
+    pub samples_dropped_in: u64,
 }
 
 /// The agent core. See the module documentation.
@@ -357,12 +359,13 @@ where
         id: ObjectId,
         variant: &xrce_proto::EntityVariant<'_>,
         mode: xrce_proto::submessage::CreationMode,
+        now: Instant,
     ) -> StatusCode {
         if !self.clients.contains_key(&key) {
             return StatusCode::ERR_UNKNOWN_REFERENCE;
         }
         self.pump_needed = true;
-        self.create_object(key, id, variant, mode, xrce_proto::Endianness::Little)
+        self.create_object(key, id, variant, mode, xrce_proto::Endianness::Little, now)
     }
 
     /// Deletes an entity and its children (library API).

@@ -16,10 +16,10 @@ use xrce_proto::{
 
 use super::object::is_entity_kind;
 use super::read::{ReadRequest, ReadTask};
-use super::session::{parse_hard_liveliness, ProxyClient};
+use super::session::{parse_hard_liveliness, ProxyClient, Resume};
 use super::stream::{fragment, InAction, ReliableIn, ReliableOut};
 use super::{encode_message, encode_submessage, AgentCore};
-use crate::middleware::{Creation, EntityRef, Middleware, Sample};
+use crate::middleware::{Creation, EntityRef, Middleware, SampleRef, WriteOutcome};
 
 use std::fmt::Debug;
 use std::hash::Hash;
@@ -38,10 +38,15 @@ fn reply_stream(input: StreamId) -> StreamId {
 }
 
 /// Whether processing of the message continues after a submessage.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 enum Flow {
     Continue,
     Stop,
+    /// A write the middleware could not take yet ([`WriteOutcome::WouldBlock`]) on a reliable stream: the
+    /// message is held and resumes at this submessage.
+    Blocked,
+    /// The same inside the message a FRAGMENT completed: it and where in it.
+    BlockedIn(Vec<u8>, usize),
 }
 
 impl<E, M> AgentCore<E, M>
@@ -103,7 +108,7 @@ where
         }
         let stream = header.stream_id;
         match stream.kind() {
-            StreamKind::None => self.process_message(key, bytes, stream, now, false),
+            StreamKind::None => self.process_unreliable(key, bytes, stream, now),
             StreamKind::BestEffort => {
                 let Some(client) = self.clients.get_mut(&key) else { return };
                 if !client.streams.be_in.contains_key(&stream.0)
@@ -114,7 +119,7 @@ where
                     return;
                 }
                 if client.streams.be_in.get_or_insert_with(stream.0, Default::default).accept(header.sequence_nr) {
-                    self.process_message(key, bytes, stream, now, false);
+                    self.process_unreliable(key, bytes, stream, now);
                 } else {
                     tracing::trace!(client = %key, seq = header.sequence_nr, "best-effort: old message dropped");
                     self.drop_datagram();
@@ -122,6 +127,12 @@ where
             }
             StreamKind::Reliable => self.process_reliable(from, key, &header, bytes, now),
         }
+    }
+
+    /// A message of stream 0 or a best-effort stream: a write the middleware cannot take is lost, as on the
+    /// wire (handled in [`Self::handle_write`]).
+    fn process_unreliable(&mut self, key: ClientKey, bytes: &[u8], stream: StreamId, now: Instant) {
+        let _ = self.process_message(key, bytes, stream, now, false, Resume::default());
     }
 
     fn process_reliable(&mut self, from: E, key: ClientKey, header: &MessageHeader, bytes: &[u8], now: Instant) {
@@ -139,17 +150,23 @@ where
         let input = client.streams.rel_in.get_or_insert_with(stream.0, || ReliableIn::new(window));
         match input.receive(header.sequence_nr, bytes, room) {
             InAction::Process => {
-                if self.write_blocked(key, stream, bytes) {
-                    if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) {
-                        input.hold(bytes);
-                    }
-                    self.mark_blocked(key, stream);
+                let resume = if self.write_blocked(key, stream, bytes, now) {
+                    Some(Resume::default())
                 } else {
-                    if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) {
-                        input.advance();
+                    self.process_held(key, bytes, stream, now, None)
+                };
+                let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) else {
+                    return;
+                };
+                match resume {
+                    Some(resume) => {
+                        input.hold(bytes);
+                        self.hold_at(key, stream, resume);
                     }
-                    self.process_message(key, bytes, stream, now, false);
-                    self.drain_reliable(key, stream, now);
+                    None => {
+                        input.advance();
+                        self.drain_reliable(key, stream, now);
+                    }
                 }
             }
             InAction::Stored => {}
@@ -162,28 +179,51 @@ where
     /// whose writes the middleware cannot take yet (back-pressure). Returns whether any was processed.
     fn drain_reliable(&mut self, key: ClientKey, stream: StreamId, now: Instant) -> bool {
         let mut progress = false;
-        loop {
-            let next = self
-                .clients
-                .get_mut(&key)
-                .and_then(|c| c.streams.rel_in.get_mut(&stream.0))
-                .and_then(ReliableIn::pop_ready);
-            let Some(msg) = next else { break };
-            if self.write_blocked(key, stream, &msg) {
-                if let Some(input) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_in.get_mut(&stream.0)) {
+        while let Some(client) = self.clients.get_mut(&key) {
+            let Some(msg) = client.streams.rel_in.get_mut(&stream.0).and_then(ReliableIn::pop_ready) else { break };
+            let resume = client.resume.remove(&stream.0);
+            let blocked = if resume.is_none() && self.write_blocked(key, stream, &msg, now) {
+                Some(Resume::default())
+            } else {
+                self.process_held(key, &msg, stream, now, resume)
+            };
+            if let Some(resume) = blocked {
+                let Some(client) = self.clients.get_mut(&key) else { break };
+                if let Some(input) = client.streams.rel_in.get_mut(&stream.0) {
                     input.unpop(msg);
                 }
-                self.mark_blocked(key, stream);
+                self.hold_at(key, stream, resume);
                 break;
             }
             progress = true;
-            self.process_message(key, &msg, stream, now, false);
         }
         progress
     }
 
+    /// Processes a reliable message from `resume` on; where it stopped if a write would block.
+    fn process_held(
+        &mut self,
+        key: ClientKey,
+        msg: &[u8],
+        stream: StreamId,
+        now: Instant,
+        resume: Option<Resume>,
+    ) -> Option<Resume> {
+        self.process_message(key, msg, stream, now, false, resume.unwrap_or_default())
+    }
+
+    /// Holds a reliable input stream at `resume` until the middleware can take its writes.
+    fn hold_at(&mut self, key: ClientKey, stream: StreamId, resume: Resume) {
+        if let Some(client) = self.clients.get_mut(&key) {
+            if resume != Resume::default() {
+                client.resume.insert(stream.0, resume);
+            }
+        }
+        self.mark_blocked(key, stream);
+    }
+
     /// Tells the middleware whether the reliable readers of a client hold writers back (see
-    /// [`Middleware::can_write`]): not while the client is dead, so a vanished subscriber stalls its
+    /// [`Middleware::write_credit`]): not while the client is dead, so a vanished subscriber stalls its
     /// publishers for the dead time at most.
     pub(super) fn pin_readers(&mut self, key: ClientKey, pin: bool) {
         let Some(client) = self.clients.get(&key) else { return };
@@ -204,10 +244,10 @@ where
         }
     }
 
-    /// Whether a reliable message writes to a datawriter whose middleware asks to wait (spec: none; this is
-    /// our back-pressure, see [`Middleware::can_write`]). A FRAGMENT completing a message is judged by the
-    /// WRITE_DATA at the start of the reassembled message.
-    fn write_blocked(&mut self, key: ClientKey, stream: StreamId, msg: &[u8]) -> bool {
+    /// Whether a reliable message writes to a datawriter whose middleware has no credit for it now (spec:
+    /// none; this is our back-pressure, see [`Middleware::write_credit`]). A FRAGMENT completing a message
+    /// is judged by the WRITE_DATA at the start of the reassembled message.
+    fn write_blocked(&mut self, key: ClientKey, stream: StreamId, msg: &[u8], now: Instant) -> bool {
         let Ok((_, subs)) = parse(msg) else { return false };
         let Some(client) = self.clients.get(&key) else { return false };
         let mut writers: [Option<ObjectId>; 4] = [None; 4];
@@ -234,7 +274,7 @@ where
                 n += 1;
             }
         }
-        writers.iter().flatten().any(|id| !self.middleware.can_write(EntityRef::new(key, *id)))
+        writers.iter().flatten().any(|id| self.middleware.write_credit(EntityRef::new(key, *id), now) == 0)
     }
 
     /// Retries the reliable input streams held back by [`Self::write_blocked`]; acknowledges what went through.
@@ -434,11 +474,21 @@ where
         victim.is_some_and(|k| self.remove_client(k))
     }
 
-    /// Processes the submessages of one in-session message, in order, stopping at the first failure.
-    /// `nested`: the message was rebuilt from fragments (FRAGMENTs inside it are ignored).
-    fn process_message(&mut self, key: ClientKey, msg: &[u8], stream: StreamId, now: Instant, nested: bool) {
-        let Ok((header, subs)) = parse(msg) else { return };
-        for raw in subs {
+    /// Processes the submessages of one in-session message, in order, from `resume`, stopping at the first
+    /// failure; where it stopped when a write would block (reliable streams only). `nested`: the message
+    /// was rebuilt from fragments (FRAGMENTs inside it are ignored).
+    fn process_message(
+        &mut self,
+        key: ClientKey,
+        msg: &[u8],
+        stream: StreamId,
+        now: Instant,
+        nested: bool,
+        resume: Resume,
+    ) -> Option<Resume> {
+        let Ok((header, subs)) = parse(msg) else { return None };
+        let mut inner = resume.inner;
+        for (index, raw) in subs.enumerate().skip(resume.at) {
             let raw = match raw {
                 Ok(r) => r,
                 Err(e) => {
@@ -450,22 +500,37 @@ where
                     break;
                 }
             };
-            let flow = match raw.decode() {
-                Ok(sub) => self.handle_submessage(key, &header, msg, stream, &raw, sub, now, nested),
-                Err(e) => {
-                    let peer = self.clients.get(&key).and_then(|c| c.endpoint);
-                    if let Some(held_back) = self.admit_drop_log(peer, now) {
-                        tracing::warn!(?peer, client = %key, id = raw.header.id, held_back, "undecodable submessage: {e}");
+            let flow = if let Some((rebuilt, at)) = inner.take() {
+                // The message this FRAGMENT completed, held part-way.
+                match self.process_message(key, &rebuilt, stream, now, true, Resume { at, inner: None }) {
+                    Some(Resume { at, .. }) => Flow::BlockedIn(rebuilt, at),
+                    None => Flow::Continue,
+                }
+            } else {
+                match raw.decode() {
+                    Ok(sub) => self.handle_submessage(key, &header, msg, stream, &raw, sub, now, nested),
+                    Err(e) => {
+                        let peer = self.clients.get(&key).and_then(|c| c.endpoint);
+                        if let Some(held_back) = self.admit_drop_log(peer, now) {
+                            tracing::warn!(?peer, client = %key, id = raw.header.id, held_back, "undecodable submessage: {e}");
+                        }
+                        self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
+                        self.answer_undecodable(key, stream, &raw);
+                        Flow::Stop
                     }
-                    self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
-                    self.answer_undecodable(key, stream, &raw);
-                    Flow::Stop
                 }
             };
-            if flow == Flow::Stop || !self.clients.contains_key(&key) {
+            match flow {
+                Flow::Continue => {}
+                Flow::Stop => break,
+                Flow::Blocked => return Some(Resume { at: index, inner: None }),
+                Flow::BlockedIn(rebuilt, at) => return Some(Resume { at: index, inner: Some((rebuilt, at)) }),
+            }
+            if !self.clients.contains_key(&key) {
                 break;
             }
         }
+        None
     }
 
     /// A CREATE or DELETE whose payload did not decode still gets a STATUS when its request id is readable,
@@ -494,7 +559,7 @@ where
         let endian = raw.header.endianness();
         match sub {
             Submessage::Create(create) => {
-                self.handle_create(key, stream, &create, endian);
+                self.handle_create(key, stream, &create, endian, now);
                 Flow::Continue
             }
             Submessage::Delete(req) if req.object_id == ObjectId::CLIENT => {
@@ -517,7 +582,7 @@ where
                 self.send_control(key, &Submessage::Info(info_reply(&get, 1)));
                 Flow::Continue
             }
-            Submessage::WriteData(data) => self.handle_write(key, &data),
+            Submessage::WriteData(data) => self.handle_write(key, stream, &data, now),
             Submessage::ReadData(read) => {
                 self.handle_read(key, &read, now);
                 Flow::Continue
@@ -555,8 +620,7 @@ where
                 if nested || !stream.is_reliable() {
                     return Flow::Continue;
                 }
-                self.handle_fragment(key, msg, header, stream, data, last, now);
-                Flow::Continue
+                self.handle_fragment(key, msg, header, stream, data, last, now)
             }
             Submessage::Timestamp(t) => {
                 let received = self.wall_time(now);
@@ -589,32 +653,43 @@ where
         data: &[u8],
         last: bool,
         now: Instant,
-    ) {
+    ) -> Flow {
         let max = self.config.max_reassembly_size;
         let max_buffered = self.config.max_buffered_bytes_per_client;
-        let Some(client) = self.clients.get_mut(&key) else { return };
+        let Some(client) = self.clients.get_mut(&key) else { return Flow::Continue };
         let buffered = client.streams.buffered();
-        let Some(input) = client.streams.rel_in.get_mut(&stream.0) else { return };
+        let Some(input) = client.streams.rel_in.get_mut(&stream.0) else { return Flow::Continue };
         let head = msg.get(..header.size()).unwrap_or(&[]);
         let limit = max.min(max_buffered.saturating_sub(buffered).saturating_add(input.buffered()));
         match input.push_fragment(head, data, last, limit) {
-            Ok(Some(rebuilt)) => self.process_message(key, &rebuilt, stream, now, true),
-            Ok(None) => {}
+            Ok(Some(rebuilt)) => match self.process_message(key, &rebuilt, stream, now, true, Resume::default()) {
+                Some(Resume { at, .. }) => Flow::BlockedIn(rebuilt, at),
+                None => Flow::Continue,
+            },
+            Ok(None) => Flow::Continue,
             Err(size) => {
                 let peer = client.endpoint;
                 tracing::warn!(?peer, client = %key, size, limit, "fragmented message too large, dropped");
+                Flow::Continue
             }
         }
     }
 
     // ---- objects ----
 
-    fn handle_create(&mut self, key: ClientKey, stream: StreamId, create: &Create<'_>, endian: Endianness) {
+    fn handle_create(
+        &mut self,
+        key: ClientKey,
+        stream: StreamId,
+        create: &Create<'_>,
+        endian: Endianness,
+        now: Instant,
+    ) {
         self.pump_needed = true;
         let status = match &create.variant {
             ObjectVariant::Entity(variant) => {
                 let id = create.request.object_id.with_kind(variant.kind);
-                self.create_object(key, id, variant, create.mode, endian)
+                self.create_object(key, id, variant, create.mode, endian, now)
             }
             // eProsima stores nothing for these and answers with the initial STATUS_OK (spec §7.1).
             ObjectVariant::Profile { .. } => StatusCode::OK,
@@ -631,6 +706,7 @@ where
         variant: &EntityVariant<'_>,
         mode: CreationMode,
         endian: Endianness,
+        now: Instant,
     ) -> StatusCode {
         let kind = variant.kind;
         if !is_entity_kind(kind) {
@@ -657,6 +733,7 @@ where
             parent: parent.map(|p| EntityRef::new(key, p)),
             variant,
             endian,
+            now,
         };
         if exists {
             match (mode.reuse, mode.replace) {
@@ -708,7 +785,7 @@ where
 
     // ---- data ----
 
-    fn handle_write(&mut self, key: ClientKey, data: &DataPayload<'_>) -> Flow {
+    fn handle_write(&mut self, key: ClientKey, stream: StreamId, data: &DataPayload<'_>, now: Instant) -> Flow {
         if data.format != DataFormat::DATA {
             // eProsima implements FORMAT_DATA only and stops processing the message.
             tracing::debug!(client = %key, format = data.format.0, "WRITE_DATA format not supported");
@@ -719,14 +796,12 @@ where
             tracing::debug!(client = %key, %id, "WRITE_DATA to an unknown object dropped");
             return Flow::Continue;
         }
-        self.pump_needed = true;
-        self.writes_since_pump = self.writes_since_pump.saturating_add(1);
         let entity = EntityRef::new(key, id);
         let result = match id.kind() {
-            ObjectKind::DataWriter => self.middleware.write_data(entity, data.data),
-            ObjectKind::Requester => self.middleware.write_request(entity, data.request.request_id, data.data),
+            ObjectKind::DataWriter => self.middleware.write_data(entity, data.data, now),
+            ObjectKind::Requester => self.middleware.write_request(entity, data.request.request_id, data.data, now),
             ObjectKind::Replier => match data.split_sample_identity() {
-                Ok((identity, reply)) => self.middleware.write_reply(entity, &identity, reply),
+                Ok((identity, reply)) => self.middleware.write_reply(entity, &identity, reply, now),
                 Err(e) => {
                     tracing::warn!(client = %key, %id, "reply without a sample identity: {e}");
                     return Flow::Continue;
@@ -737,8 +812,17 @@ where
                 return Flow::Continue;
             }
         };
-        if let Err(e) = result {
-            tracing::debug!(client = %key, %id, "write failed: {e}");
+        match result {
+            Ok(WriteOutcome::Accepted) => {
+                self.pump_needed = true;
+                self.writes_since_pump = self.writes_since_pump.saturating_add(1);
+            }
+            Ok(WriteOutcome::WouldBlock) if stream.is_reliable() => return Flow::Blocked,
+            Ok(WriteOutcome::WouldBlock) => {
+                tracing::debug!(client = %key, %id, "middleware full: best-effort sample dropped");
+                self.stats.samples_dropped_in = self.stats.samples_dropped_in.saturating_add(1);
+            }
+            Err(e) => tracing::debug!(client = %key, %id, "write failed: {e}"),
         }
         Flow::Continue
     }
@@ -885,54 +969,27 @@ where
                 return;
             }
             task.expire_timers(now);
-            let stream = task.stream;
-            let Some(size) = self.middleware.next_sample_size(entity) else { return };
-            if task.ready(size, now).is_err() {
+            let (stream, request) = (task.stream, task.request);
+            // The sample is copied once, from the middleware into the DATA submessage; left in place when the
+            // read's pace does not allow it yet.
+            let mut sub = None;
+            let pool = &mut self.pool;
+            let taken = self.middleware.poll_sample(entity, &mut |sample| {
+                let size = sample.wire_size();
+                if task.ready(size, now).is_err() {
+                    return false;
+                }
+                sub = data_submessage(key, request, &sample, pool);
+                task.sent(size, now);
+                true
+            });
+            if taken != Some(true) {
                 return;
             }
-            let request = task.request;
-            let Some(sample) = self.middleware.take_sample(entity) else { return };
-            self.send_data(key, stream, request, &sample, now);
-            self.middleware.recycle_sample(sample);
-            if let Some(task) = self.clients.get_mut(&key).and_then(|c| c.reads.get_mut(&reader)) {
-                task.sent(size, now);
+            if let Some(sub) = sub {
+                self.send_on_stream(key, stream, sub, Some(now));
             }
         }
-    }
-
-    /// Sends a sample as one DATA submessage on `stream` (spec §6.8).
-    fn send_data(
-        &mut self,
-        key: ClientKey,
-        stream: StreamId,
-        request: BaseObjectRequest,
-        sample: &Sample,
-        now: Instant,
-    ) {
-        let head = RequestHead::data(SubmessageId::Data, request, sample.wire_size());
-        let Some(head_bytes) = head.to_bytes() else {
-            tracing::warn!(client = %key, size = head.encoded_len(), "sample too large for one DATA submessage, dropped");
-            return;
-        };
-        let mut sub = self.pool.get();
-        sub.extend_from_slice(&head_bytes);
-        match sample {
-            Sample::Data(d) => sub.extend_from_slice(d),
-            Sample::Request { identity, data } => {
-                let mut id_buf = [0u8; xrce_proto::SampleIdentity::SIZE];
-                let mut w = xrce_proto::cdr::Writer::new(&mut id_buf, Endianness::Little);
-                w.write(identity);
-                sub.extend_from_slice(&id_buf);
-                sub.extend_from_slice(data);
-            }
-            Sample::Reply { request_id, data } => {
-                // A reply starts with the request it answers (eProsima's requester format).
-                let related = BaseObjectRequest { request_id: *request_id, object_id: request.object_id };
-                sub.extend_from_slice(&related.to_bytes());
-                sub.extend_from_slice(data);
-            }
-        }
-        self.send_on_stream(key, stream, sub, Some(now));
     }
 
     fn send_status(&mut self, key: ClientKey, stream: StreamId, request: BaseObjectRequest, status: StatusCode) {
@@ -1031,6 +1088,40 @@ where
             }
         }
     }
+}
+
+/// A sample as one DATA submessage (spec §6.8), header included, in a buffer of `pool`; `None` (logged)
+/// when it is too large for one submessage.
+fn data_submessage(
+    key: ClientKey,
+    request: BaseObjectRequest,
+    sample: &SampleRef<'_>,
+    pool: &mut crate::bufpool::BufPool,
+) -> Option<Vec<u8>> {
+    let head = RequestHead::data(SubmessageId::Data, request, sample.wire_size());
+    let Some(head_bytes) = head.to_bytes() else {
+        tracing::warn!(client = %key, size = head.encoded_len(), "sample too large for one DATA submessage, dropped");
+        return None;
+    };
+    let mut sub = pool.get();
+    sub.extend_from_slice(&head_bytes);
+    match *sample {
+        SampleRef::Data(d) => sub.extend_from_slice(d),
+        SampleRef::Request { identity, data } => {
+            let mut id_buf = [0u8; xrce_proto::SampleIdentity::SIZE];
+            let mut w = xrce_proto::cdr::Writer::new(&mut id_buf, Endianness::Little);
+            w.write(&identity);
+            sub.extend_from_slice(&id_buf);
+            sub.extend_from_slice(data);
+        }
+        SampleRef::Reply { request_id, data } => {
+            // A reply starts with the request it answers (eProsima's requester format).
+            let related = BaseObjectRequest { request_id, object_id: request.object_id };
+            sub.extend_from_slice(&related.to_bytes());
+            sub.extend_from_slice(data);
+        }
+    }
+    Some(sub)
 }
 
 /// Submessages of a message whose header is already decoded; stops at the first length error.

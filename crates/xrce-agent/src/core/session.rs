@@ -67,10 +67,23 @@ pub struct ProxyClient<E> {
     pub pack_data: bool,
     /// Its reliable readers stopped holding writers back (see [`Unpinned`]).
     pub unpinned: Option<Unpinned>,
+    /// Reliable input streams whose held message was processed in part before a write the middleware could
+    /// not take yet ([`WriteOutcome::WouldBlock`](crate::middleware::WriteOutcome::WouldBlock)): where to
+    /// resume, so no submessage runs twice.
+    pub resume: VecMap<u8, Resume>,
+}
+
+/// Where the processing of a held reliable message resumes.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Resume {
+    /// Index of the submessage that could not run yet.
+    pub at: usize,
+    /// When that submessage was the last FRAGMENT of a message: the rebuilt message and where in it.
+    pub inner: Option<(Vec<u8>, usize)>,
 }
 
 /// Why a client's reliable readers no longer hold writers back (back-pressure, see
-/// [`Middleware::can_write`](crate::middleware::Middleware::can_write)).
+/// [`Middleware::write_credit`](crate::middleware::Middleware::write_credit)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Unpinned {
     /// Silent past its dead time; pinned again when heard from.
@@ -101,6 +114,7 @@ impl<E: Copy> ProxyClient<E> {
             shared_memory: false,
             pack_data: false,
             unpinned: None,
+            resume: VecMap::default(),
         }
     }
 
@@ -132,6 +146,7 @@ impl<E: Copy> ProxyClient<E> {
     /// Resets every stream (same-session CREATE_CLIENT, RESET).
     pub fn reset_streams(&mut self) {
         self.streams = Streams::default();
+        self.resume = VecMap::default();
     }
 }
 
