@@ -15,6 +15,7 @@ pub mod session;
 pub mod stream;
 pub mod vecmap;
 
+mod outbox;
 mod process;
 #[cfg(test)]
 mod tests;
@@ -74,7 +75,10 @@ pub struct AgentCore<E, M> {
     /// Boxed: the table's spare capacity then costs a pointer per slot, not a whole client.
     clients: HashMap<ClientKey, Box<ProxyClient<E>>>,
     by_endpoint: HashMap<E, ClientKey>,
-    transmits: VecDeque<Transmit<E>>,
+    /// Replies to peers outside any session (STATUS_AGENT, INFO, the STATUS of a deleted client).
+    stateless: VecDeque<Transmit<E>>,
+    /// Clients with messages waiting, per class, in turn order ([`outbox`]).
+    turns: outbox::TurnLists,
     /// Recycled message buffers (see [`Self::recycle`]).
     pool: stream::BufPool,
     /// Reused list of messages produced while a client is borrowed.
@@ -91,18 +95,12 @@ pub struct AgentCore<E, M> {
     /// Samples written since the last pump: past [`PUMP_AFTER_WRITES`] the pump runs within the batch, so a
     /// best-effort reader (whose CED topic keeps 16 samples) loses nothing to a long batch.
     writes_since_pump: usize,
-    /// ACKNACKs at the front of `transmits` that [`Self::poll_acknack`] may still yield.
-    acks_at_front: usize,
     /// Reliable input streams holding a message back until the middleware can take its writes.
     blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
     /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
     acks_due: Vec<(ClientKey, xrce_proto::StreamId)>,
     /// Set while a read task is pumped: reliable DATA waits to be packed.
     pumping: bool,
-    /// Messages ever queued for the shell (identifies the newest one).
-    pushes: u64,
-    /// The newest queued message is a best-effort one to this client and stream: more DATA may join it.
-    open_be: Option<(u64, ClientKey, u8)>,
     /// Clients that may have read tasks (cleaned lazily by the pump).
     reading: Vec<ClientKey>,
     /// Reused list of reader ids while pumping.
@@ -116,7 +114,7 @@ impl<E: Debug, M> Debug for AgentCore<E, M> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("AgentCore")
             .field("clients", &self.clients.len())
-            .field("transmits", &self.transmits.len())
+            .field("stateless", &self.stateless.len())
             .field("stats", &self.stats)
             .finish_non_exhaustive()
     }
@@ -134,7 +132,8 @@ where
             middleware,
             clients: HashMap::new(),
             by_endpoint: HashMap::new(),
-            transmits: VecDeque::new(),
+            stateless: VecDeque::new(),
+            turns: outbox::TurnLists::default(),
             pool: stream::BufPool::default(),
             scratch: Vec::new(),
             heartbeat_due: None,
@@ -143,12 +142,9 @@ where
             pump_needed: false,
             pump_deferred: false,
             writes_since_pump: 0,
-            acks_at_front: 0,
             blocked: Vec::new(),
             acks_due: Vec::new(),
             pumping: false,
-            pushes: 0,
-            open_be: None,
             reading: Vec::new(),
             scratch_ids: Vec::new(),
             wall_anchor: None,
@@ -278,31 +274,47 @@ where
     /// are delivered: a shell can send them ahead of the rest, so a publisher whose history is full gets its
     /// slots back without waiting for the deliveries to be built.
     pub fn poll_acknack(&mut self) -> Option<Transmit<E>> {
-        if !self.acks_due.is_empty() {
-            self.acks_at_front += self.flush_acknacks();
-        }
-        if self.acks_at_front == 0 {
-            return None;
-        }
-        self.pop_transmit()
+        self.next_acknack()
     }
 
-    /// The next message to send.
+    /// The next message to send, in this order: ACKNACKs owed, replies outside a session, clients' control
+    /// messages, clients' stream messages, one per client in turn ([`outbox`]).
     pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
         self.end_batch();
-        if !self.acks_due.is_empty() {
-            self.acks_at_front += self.flush_acknacks();
+        if let Some(t) = self.next_acknack() {
+            return Some(t);
         }
-        self.pop_transmit()
+        if let Some(t) = self.stateless.pop_front() {
+            return Some(t);
+        }
+        for class in [outbox::Class::Control, outbox::Class::Stream] {
+            while let Some((client, data)) = self.turns.next(class, &mut self.clients, client_outbox) {
+                match client.endpoint {
+                    Some(to) => return Some(Transmit { to, data }),
+                    None => self.pool.put(data),
+                }
+            }
+        }
+        None
     }
 
-    fn pop_transmit(&mut self) -> Option<Transmit<E>> {
-        self.acks_at_front = self.acks_at_front.saturating_sub(1);
-        let t = self.transmits.pop_front();
-        if self.transmits.is_empty() {
-            self.open_be = None;
+    /// An ACKNACK owed, built now from its input stream's state (so a batch of messages from a client costs
+    /// it one ACKNACK per stream, with the latest state).
+    fn next_acknack(&mut self) -> Option<Transmit<E>> {
+        while !self.acks_due.is_empty() {
+            let (key, stream) = self.acks_due.remove(0);
+            let Some(client) = self.clients.get(&key) else { continue };
+            let Some(ack) = client.streams.rel_in.get(&stream.0).map(|s| s.acknack(stream.0)) else { continue };
+            let Some(to) = client.endpoint else { continue };
+            let header = client.header(xrce_proto::StreamId::NONE, 0);
+            let mut buf = self.pool.get();
+            if encode_into(&mut buf, &header, &xrce_proto::Submessage::AckNack(ack)) {
+                self.stats.messages_out = self.stats.messages_out.saturating_add(1);
+                return Some(Transmit { to, data: buf });
+            }
+            self.pool.put(buf);
         }
-        t
+        None
     }
 
     /// Gives the buffer of a sent [`Transmit`] back for reuse (optional; saves an allocation per message).
@@ -312,7 +324,8 @@ where
 
     /// Number of messages waiting in [`Self::poll_transmit`] (at least one while a batch awaits delivery).
     pub fn pending_transmits(&self) -> usize {
-        self.transmits.len() + self.acks_due.len() + usize::from(self.pump_deferred)
+        let queued: usize = self.clients.values().map(|c| c.outbox.len()).sum();
+        queued + self.stateless.len() + self.acks_due.len() + usize::from(self.pump_deferred)
     }
 
     /// Creates or refreshes a client without a CREATE_CLIENT message (library API; eProsima's
@@ -328,10 +341,10 @@ where
         for client in self.clients.values_mut() {
             if client.endpoint == Some(endpoint) {
                 client.endpoint = None;
+                client.outbox.clear();
             }
         }
-        self.transmits.retain(|t| t.to != endpoint);
-        self.open_be = None;
+        self.stateless.retain(|t| t.to != endpoint);
     }
 
     /// Deletes a client and all its entities.
@@ -348,8 +361,8 @@ where
         for key in self.client_keys() {
             self.remove_client(key);
         }
-        self.transmits.clear();
-        self.open_be = None;
+        self.stateless.clear();
+        self.turns.clear();
     }
 
     /// Creates an entity for a client as a CREATE would (library API).
@@ -375,18 +388,31 @@ where
 
     // ---- internals shared by the submodules ----
 
-    fn push_transmit(&mut self, to: Option<E>, data: Vec<u8>) {
-        let Some(to) = to else {
+    /// Queues a reply to a peer outside any session; beyond the transmit bound the newest is dropped.
+    fn push_stateless(&mut self, to: E, data: Vec<u8>) {
+        if self.stateless.len() >= self.config.max_transmit_queue {
             self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
             return;
-        };
-        if self.transmits.len() >= self.config.max_transmit_queue {
-            self.transmits.pop_front();
-            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
         }
         self.stats.messages_out = self.stats.messages_out.saturating_add(1);
-        self.pushes = self.pushes.wrapping_add(1);
-        self.transmits.push_back(Transmit { to, data });
+        self.stateless.push_back(Transmit { to, data });
+    }
+
+    /// Queues a message for a client; dropped when the client has no endpoint yet, or (the oldest stream
+    /// message, which a reliable stream retransmits) when its outbox is full.
+    fn push_client(&mut self, key: ClientKey, class: outbox::Class, data: Vec<u8>) {
+        let max = self.config.max_transmit_queue;
+        let Some(client) = self.clients.get_mut(&key).filter(|c| c.endpoint.is_some()) else {
+            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
+            self.pool.put(data);
+            return;
+        };
+        if let Some(dropped) = client.outbox.push(class, data, max) {
+            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
+            self.pool.put(dropped);
+        }
+        self.stats.messages_out = self.stats.messages_out.saturating_add(1);
+        self.turns.enlist(key, &mut client.outbox, class);
     }
 
     fn wall_time(&self, now: Instant) -> xrce_proto::Time {
@@ -530,14 +556,18 @@ where
     fn send_control(&mut self, key: ClientKey, sub: &xrce_proto::Submessage<'_>) {
         let Some(client) = self.clients.get(&key) else { return };
         let header = client.header(xrce_proto::StreamId::NONE, 0);
-        let to = client.endpoint;
         let mut buf = self.pool.get();
         if encode_into(&mut buf, &header, sub) {
-            self.push_transmit(to, buf);
+            self.push_client(key, outbox::Class::Control, buf);
         } else {
             self.pool.put(buf);
         }
     }
+}
+
+/// The outbox of a client, for [`outbox::TurnLists::next`].
+fn client_outbox<E>(client: &mut Box<ProxyClient<E>>) -> &mut outbox::Outbox {
+    &mut client.outbox
 }
 
 /// Encodes `header` + one submessage.

@@ -15,6 +15,7 @@ use xrce_proto::{
 };
 
 use super::object::is_entity_kind;
+use super::outbox::Class;
 use super::read::{ReadRequest, ReadTask};
 use super::session::{parse_hard_liveliness, ProxyClient, Resume};
 use super::stream::{fragment, InAction, ReliableIn, ReliableOut};
@@ -298,22 +299,6 @@ where
         }
     }
 
-    /// Sends the scheduled ACKNACKs.
-    /// ACKNACKs go ahead of the queued DATA: they are small and let publishers write again sooner.
-    /// Queues the ACKNACKs owed, ahead of everything already queued; how many.
-    pub(super) fn flush_acknacks(&mut self) -> usize {
-        let before = self.pushes;
-        for (key, stream) in std::mem::take(&mut self.acks_due) {
-            let ack = self.clients.get(&key).and_then(|c| c.streams.rel_in.get(&stream.0)).map(|s| s.acknack(stream.0));
-            if let Some(ack) = ack {
-                self.send_control(key, &Submessage::AckNack(ack));
-            }
-        }
-        let added = usize::try_from(self.pushes.wrapping_sub(before)).unwrap_or(usize::MAX).min(self.transmits.len());
-        self.transmits.rotate_right(added);
-        added
-    }
-
     /// CREATE_CLIENT and GET_INFO outside a session (header session id 0x00 or 0x80).
     fn out_of_session(&mut self, from: E, header: &MessageHeader, bytes: &[u8], now: Instant) {
         for raw in parse_submessages(bytes, header) {
@@ -337,7 +322,7 @@ where
                             .is_some_and(|c| c.endpoint == Some(from));
                     let reply = info_reply(&get, u8::from(known));
                     if let Some(msg) = encode_message(header, &Submessage::Info(reply)) {
-                        self.push_transmit(Some(from), msg);
+                        self.push_stateless(from, msg);
                     }
                 }
                 other => {
@@ -357,14 +342,14 @@ where
                     let reply = BaseObjectReply { related_request: req, result: ResultStatus::new(StatusCode::OK) };
                     let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
                     if let Some(msg) = encode_message(&h, &Submessage::Status(reply)) {
-                        self.push_transmit(Some(from), msg);
+                        self.push_stateless(from, msg);
                     }
                     answered = true;
                 }
                 Ok(Submessage::GetInfo(get)) => {
                     let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
                     if let Some(msg) = encode_message(&h, &Submessage::Info(info_reply(&get, 0))) {
-                        self.push_transmit(Some(from), msg);
+                        self.push_stateless(from, msg);
                     }
                     answered = true;
                 }
@@ -388,7 +373,7 @@ where
         let reply_header = MessageHeader::new(rep.session_id, StreamId::NONE, 0, key);
         let reply = StatusAgent { result: ResultStatus::new(status), agent: AgentRepresentation::EPROSIMA };
         if let Some(msg) = encode_message(&reply_header, &Submessage::StatusAgent(reply)) {
-            self.push_transmit(Some(from), msg);
+            self.push_stateless(from, msg);
         }
     }
 
@@ -568,8 +553,8 @@ where
                 // The client is gone: answer with its header, on stream 0, to where it was.
                 let reply = BaseObjectReply { related_request: req, result: ResultStatus::new(status) };
                 let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..*header };
-                if let Some(m) = encode_message(&h, &Submessage::Status(reply)) {
-                    self.push_transmit(to, m);
+                if let (Some(to), Some(m)) = (to, encode_message(&h, &Submessage::Status(reply))) {
+                    self.push_stateless(to, m);
                 }
                 Flow::Stop
             }
@@ -866,7 +851,7 @@ where
     fn handle_acknack(&mut self, key: ClientKey, ack: &xrce_proto::submessage::AckNack, now: Instant) {
         let Some(client) = self.clients.get_mut(&key) else { return };
         let header = client.header(StreamId(ack.stream_id), 0);
-        let (to, mtu) = (client.endpoint, client.pack_mtu());
+        let mtu = client.pack_mtu();
         let Some(out) = client.streams.rel_out.get_mut(&ack.stream_id) else { return };
         let before = out.first_unacked();
         let mut sent = std::mem::take(&mut self.scratch);
@@ -876,7 +861,7 @@ where
         out.flush(&header, mtu, Some(now), &mut self.pool, |m| sent.push(m));
         let probe = out.arm_probe(now, self.config.heartbeat_period);
         for m in sent.drain(..) {
-            self.push_transmit(to, m);
+            self.push_client(key, Class::Stream, m);
         }
         self.scratch = sent;
         self.schedule_probe(probe, key, ack.stream_id);
@@ -917,13 +902,13 @@ where
     fn flush_stream(&mut self, key: ClientKey, stream: StreamId, now: Instant) {
         let Some(client) = self.clients.get_mut(&key) else { return };
         let header = client.header(stream, 0);
-        let (to, mtu) = (client.endpoint, client.pack_mtu());
+        let mtu = client.pack_mtu();
         let Some(out) = client.streams.rel_out.get_mut(&stream.0) else { return };
         let mut sent = std::mem::take(&mut self.scratch);
         out.flush(&header, mtu, Some(now), &mut self.pool, |m| sent.push(m));
         let probe = out.arm_probe(now, self.config.heartbeat_period);
         for m in sent.drain(..) {
-            self.push_transmit(to, m);
+            self.push_client(key, Class::Stream, m);
         }
         self.scratch = sent;
         self.schedule_probe(probe, key, stream.0);
@@ -1008,7 +993,6 @@ where
         let max_pending = self.config.max_pending_per_stream;
         let max_streams = self.config.max_streams_per_client;
         let Some(client) = self.clients.get_mut(&key) else { return };
-        let to = client.endpoint;
         let header = client.header(stream, 0);
         let header_len = header.size();
         let fits = header_len + sub.len() <= client.mtu;
@@ -1029,23 +1013,20 @@ where
                     self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
                     return;
                 }
-                // A DATA on a best-effort stream joins the previous message to the same client and stream if
-                // that one is still queued and has room: one datagram for several samples.
+                // A DATA on a best-effort stream joins the client's newest message of that stream if it is still
+                // queued and has room: one datagram for several samples.
                 let mtu = client.mtu;
-                let pack = client.pack_data;
-                if pack && stream.kind() == StreamKind::BestEffort && self.open_be == Some((self.pushes, key, stream.0))
-                {
-                    if let Some(last) = self.transmits.back_mut() {
-                        let pad = (4 - last.data.len() % 4) % 4;
-                        if last.data.len() + pad + sub.len() <= mtu {
-                            last.data.resize(last.data.len() + pad, 0);
-                            last.data.extend_from_slice(&sub);
+                if client.pack_data && stream.kind() == StreamKind::BestEffort {
+                    if let Some(last) = client.outbox.open_message(stream.0) {
+                        let pad = (4 - last.len() % 4) % 4;
+                        if last.len() + pad + sub.len() <= mtu {
+                            last.resize(last.len() + pad, 0);
+                            last.extend_from_slice(&sub);
                             self.pool.put(sub);
                             return;
                         }
                     }
                 }
-                let Some(client) = self.clients.get_mut(&key) else { return };
                 let seq = if stream.kind() == StreamKind::None {
                     0
                 } else {
@@ -1058,9 +1039,13 @@ where
                 }
                 msg.extend_from_slice(&sub);
                 self.pool.put(sub);
-                self.push_transmit(to, msg);
-                if stream.kind() == StreamKind::BestEffort {
-                    self.open_be = Some((self.pushes, key, stream.0));
+                if stream.kind() == StreamKind::None {
+                    self.push_client(key, Class::Control, msg);
+                } else {
+                    self.push_client(key, Class::Stream, msg);
+                    if let Some(client) = self.clients.get_mut(&key) {
+                        client.outbox.leave_open(stream.0);
+                    }
                 }
             }
             StreamKind::Reliable => {
@@ -1078,7 +1063,7 @@ where
                 }
                 let probe = now.and_then(|now| out.arm_probe(now, self.config.heartbeat_period));
                 for m in sent.drain(..) {
-                    self.push_transmit(to, m);
+                    self.push_client(key, Class::Stream, m);
                 }
                 self.scratch = sent;
                 if let Some(now) = now {

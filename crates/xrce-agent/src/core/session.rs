@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 use xrce_proto::{ClientKey, MessageHeader, ObjectId, StreamId};
 
 use super::object::ObjectTable;
+use super::outbox::Outbox;
 use super::read::ReadTask;
 use super::stream::{BestEffortIn, BestEffortOut, ReliableIn, ReliableOut};
 use super::vecmap::VecMap;
@@ -71,6 +72,8 @@ pub struct ProxyClient<E> {
     /// not take yet ([`WriteOutcome::WouldBlock`](crate::middleware::WriteOutcome::WouldBlock)): where to
     /// resume, so no submessage runs twice.
     pub resume: VecMap<u8, Resume>,
+    /// What it has to send ([`Outbox`]).
+    pub outbox: Outbox,
 }
 
 /// Where the processing of a held reliable message resumes.
@@ -115,6 +118,7 @@ impl<E: Copy> ProxyClient<E> {
             pack_data: false,
             unpinned: None,
             resume: VecMap::default(),
+            outbox: Outbox::default(),
         }
     }
 
