@@ -9,16 +9,9 @@
 //! waited for a lost ACKNACK would stretch an average exactly when probes matter.
 //!
 //! Round trips are timed on one message at a time, never on a retransmitted one (Karn's rule). The timers
-//! of all streams live in one heap ([`ProbeTimers`]); an entry whose stream was re-armed since is stale and
-//! skipped when it comes due, so the heap holds at most one live entry per stream; stale entries are
-//! purged when they outnumber the clients four to one (a re-arm needs an unanswered probe first, so at
-//! most one per stream per 2 ms).
+//! of a client's streams are part of its connection's timer ([`Connection::poll_timeout`](super::connection::Connection::poll_timeout)).
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::time::{Duration, Instant};
-
-use xrce_proto::ClientKey;
 
 use super::stream::seq_lt;
 
@@ -83,6 +76,7 @@ impl Probe {
     }
 
     /// The smallest round trip sampled so far.
+    #[cfg(test)]
     pub fn min_rtt(&self) -> Option<Duration> {
         self.min_rtt
     }
@@ -132,54 +126,6 @@ impl Probe {
         }
         self.backoff = self.backoff.saturating_add(1).min(MAX_BACKOFF);
         Some((true, self.arm(now, period)))
-    }
-}
-
-/// The probe timers of every stream, earliest first.
-#[derive(Debug, Default)]
-pub struct ProbeTimers {
-    heap: BinaryHeap<Reverse<(Instant, ClientKey, u8)>>,
-}
-
-impl ProbeTimers {
-    /// Capacity kept by an empty heap (a burst of sessions must not pin its peak).
-    const KEEP: usize = 1024;
-
-    /// Schedules the probe of `stream` of client `key` at `due`.
-    pub fn push(&mut self, due: Instant, key: ClientKey, stream: u8) {
-        self.heap.push(Reverse((due, key, stream)));
-    }
-
-    /// The earliest scheduled instant.
-    pub fn next_due(&self) -> Option<Instant> {
-        self.heap.peek().map(|Reverse((due, _, _))| *due)
-    }
-
-    /// Takes the earliest entry if it is due at `now`.
-    pub fn pop_due(&mut self, now: Instant) -> Option<(Instant, ClientKey, u8)> {
-        if self.next_due()? > now {
-            return None;
-        }
-        let entry = self.heap.pop().map(|Reverse(e)| e);
-        if self.heap.is_empty() && self.heap.capacity() > Self::KEEP {
-            self.heap.shrink_to(Self::KEEP);
-        }
-        entry
-    }
-
-    /// Keeps only the entries `live` accepts (drops stale ones).
-    pub fn retain(&mut self, mut live: impl FnMut(Instant, ClientKey, u8) -> bool) {
-        self.heap.retain(|Reverse((due, key, stream))| live(*due, *key, *stream));
-    }
-
-    /// Entries held (live and stale).
-    pub fn len(&self) -> usize {
-        self.heap.len()
-    }
-
-    /// Whether no entry is held.
-    pub fn is_empty(&self) -> bool {
-        self.heap.is_empty()
     }
 }
 
@@ -261,23 +207,5 @@ mod tests {
         // Steady flow: a probe due within the timeout stays armed.
         p.on_progress(2, t0 + 2 * MS, PERIOD);
         assert_eq!(p.arm(t0 + 2 * MS, PERIOD), None);
-    }
-
-    #[test]
-    fn timers_come_out_earliest_first_when_due() {
-        let t0 = Instant::now();
-        let mut t = ProbeTimers::default();
-        t.push(t0 + 3 * MS, ClientKey([0, 0, 0, 1]), 0x80);
-        t.push(t0 + MS, ClientKey([0, 0, 0, 2]), 0x80);
-        assert_eq!(t.next_due(), Some(t0 + MS));
-        assert_eq!(t.pop_due(t0), None);
-        assert_eq!(t.pop_due(t0 + 5 * MS).map(|e| e.1), Some(ClientKey([0, 0, 0, 2])));
-        assert_eq!(t.pop_due(t0 + 5 * MS).map(|e| e.1), Some(ClientKey([0, 0, 0, 1])));
-        assert!(t.is_empty());
-        for i in 0..10u8 {
-            t.push(t0 + u32::from(i) * MS, ClientKey([0, 0, 0, i]), 0x80);
-        }
-        t.retain(|_, key, _| key.0[3] % 2 == 0);
-        assert_eq!(t.len(), 5);
     }
 }

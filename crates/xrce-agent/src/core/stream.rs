@@ -274,11 +274,6 @@ impl ReliableOut {
         self.max_pending.saturating_sub(self.pending.len())
     }
 
-    /// Whether nothing waits behind the window (the time to take another sample for it).
-    pub fn is_idle(&self) -> bool {
-        self.pending.is_empty() && self.has_window_room()
-    }
-
     /// Whether another message may go in flight.
     pub fn has_window_room(&self) -> bool {
         self.in_flight.len() < usize::from(self.window)
