@@ -106,7 +106,11 @@ fn main() {
                     // A DATA, or the last FRAGMENT of a sample the MTU made the agent cut.
                     let data = subs
                         .flatten()
-                        .filter(|raw| raw.header.id == 0x09 || (raw.header.id == 0x0d && raw.header.flags & xrce_proto::submessage::flag::LAST_FRAGMENT != 0))
+                        .filter(|raw| {
+                            raw.header.id == 0x09
+                                || (raw.header.id == 0x0d
+                                    && raw.header.flags & xrce_proto::submessage::flag::LAST_FRAGMENT != 0)
+                        })
                         .count();
                     delivered += data as u64;
                     if header.stream_id.0 == 0x80 {
