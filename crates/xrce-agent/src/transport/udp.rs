@@ -5,10 +5,11 @@
 //! ([`batch`](super::batch), `recvmmsg` on Linux), runs them through the core under one lock, sends the
 //! ACKNACKs owed at once ([`AgentCore::poll_acknack`](crate::core::AgentCore::poll_acknack)), then delivers
 //! the batch's samples and sends the rest in batches (`sendmmsg`; a run of equal-size datagrams to one peer,
-//! such as the fragments of a sample, as one UDP GSO send). A full batch is followed by another turn without
-//! waiting. Socket buffers are enlarged ([`SOCKET_BUFFER`]) so bursts are queued rather than dropped while
-//! the thread is descheduled. Sent buffers go back to the core's pool: no allocation per message once warm.
-//! Sends block (the socket stays in blocking mode) as they always did; receives never do.
+//! such as the fragments of a sample, as one UDP GSO send). After a turn that received datagrams the next
+//! batch is read at once, without a readiness poll, as long as datagrams keep coming. Socket buffers are
+//! enlarged ([`SOCKET_BUFFER`]) so bursts are queued rather than dropped while the thread is descheduled.
+//! Sent buffers go back to the core's pool: no allocation per message once warm. Sends block (the socket
+//! stays in blocking mode) as they always did; receives never do.
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -21,7 +22,7 @@ use mio::unix::SourceFd;
 use mio::{Interest, Poll, Token};
 use socket2::{Domain, Protocol, Socket, Type};
 
-use super::batch::{RecvBatch, SendBatch, BATCH};
+use super::batch::{RecvBatch, SendBatch};
 use super::drive::{attach, serve, Inbox, Io, Spent};
 use super::{SharedCore, WakeFlag};
 use crate::core::Transmit;
@@ -91,6 +92,7 @@ impl UdpServer {
             tx: SendBatch::new(),
             // Datagrams may have been queued before the registration.
             readable: true,
+            fetched: 0,
         };
         let served = serve(&self.core, &mut poll, &self.wake, &mut io, stop);
         let _ = poll.registry().deregister(&mut SourceFd(&fd));
@@ -103,8 +105,19 @@ struct UdpIo<'a> {
     socket: &'a UdpSocket,
     rx: RecvBatch,
     tx: SendBatch,
-    /// Datagrams may be queued: readiness was reported, or the last batch was full.
+    /// Datagrams may be queued: readiness was reported, or the last batch got some (more may have come
+    /// during the turn; readiness is edge-triggered, so a batch that left some behind is not announced).
     readable: bool,
+    /// Datagrams in `rx` not yet handed to the core.
+    fetched: usize,
+}
+
+impl UdpIo<'_> {
+    fn fetch(&mut self) -> io::Result<()> {
+        self.fetched = self.rx.recv(self.socket)?;
+        self.readable = self.fetched > 0;
+        Ok(())
+    }
 }
 
 impl Io<SocketAddr> for UdpIo<'_> {
@@ -114,18 +127,18 @@ impl Io<SocketAddr> for UdpIo<'_> {
         self.readable = true;
     }
 
-    fn input_pending(&self) -> bool {
-        self.readable
+    fn prefetch(&mut self) -> io::Result<bool> {
+        if self.readable && self.fetched == 0 {
+            self.fetch()?;
+        }
+        Ok(self.fetched > 0)
     }
 
     fn receive(&mut self, inbox: &mut Inbox<'_, SocketAddr>) -> io::Result<()> {
-        if !self.readable {
-            return Ok(());
+        if self.readable && self.fetched == 0 {
+            self.fetch()?;
         }
-        let n = self.rx.recv(self.socket)?;
-        // Readiness is edge-triggered: a full batch may have left datagrams that no event will announce.
-        self.readable = n == BATCH;
-        for i in 0..n {
+        for i in 0..std::mem::take(&mut self.fetched) {
             if let Some((from, bytes)) = self.rx.get(i) {
                 inbox.deliver(from, bytes);
             }
