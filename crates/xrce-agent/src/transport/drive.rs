@@ -11,7 +11,7 @@ use std::fmt::Debug;
 use std::hash::Hash;
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use mio::event::Event;
@@ -177,6 +177,15 @@ pub fn attach<E: Copy + Eq + Hash + Debug>(core: &SharedCore<E>, poll: &Poll) ->
         }
     }));
     Ok(flag)
+}
+
+/// Takes a server's poll (made at bind so the middleware's waker exists before the loop runs) for its loop;
+/// `server` names it in the error when it is already running.
+pub fn take_poll(slot: &Mutex<Option<Poll>>, server: &str) -> io::Result<Poll> {
+    slot.lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .take()
+        .ok_or_else(|| io::Error::other(format!("{server} is already running")))
 }
 
 /// Runs a shell until `stop` is set (checked at least every [`MAX_BLOCK`]): waits for readiness, the core's

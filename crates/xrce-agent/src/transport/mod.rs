@@ -146,6 +146,24 @@ mod tests {
         t.join().unwrap().unwrap();
     }
 
+    /// Fires `waker` `times` times; each must make the running server poll the middleware within `within`
+    /// (far below the loop's longest block: a timeout turn would have come up to MAX_BLOCK later).
+    fn assert_wakes<E: Copy + Eq + std::hash::Hash + std::fmt::Debug>(
+        core: &SharedCore<E>,
+        waker: &Waker,
+        times: u64,
+        within: Duration,
+    ) {
+        std::thread::sleep(Duration::from_millis(50));
+        let before = lock(core).stats().middleware_polls;
+        for n in 1..=times {
+            let started = Instant::now();
+            waker();
+            assert!(wait_for_polls(core, before + n), "no poll after wake-up {n}");
+            assert!(started.elapsed() < within, "wake-up {n} waited for a timeout");
+        }
+    }
+
     /// The wake-up reaches the UDP loop without any datagram: the server's socket is connected to a peer that
     /// never sends, so the kernel drops whatever else is sent to its port, and nothing reaches the core.
     #[test]
@@ -159,14 +177,7 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let s2 = stop.clone();
         let t = std::thread::spawn(move || server.run(&s2));
-        std::thread::sleep(Duration::from_millis(50));
-        for n in 1..=3 {
-            let started = Instant::now();
-            waker();
-            assert!(wait_for_polls(&core, n), "no poll after wake-up {n}");
-            // Far below the loop's longest block (its timeout turn would have come up to MAX_BLOCK later).
-            assert!(started.elapsed() < MAX_BLOCK / 4, "wake-up {n} waited for a timeout");
-        }
+        assert_wakes(&core, &waker, 3, MAX_BLOCK / 4);
         assert_eq!(lock(&core).stats().datagrams_in, 0);
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap().unwrap();
@@ -174,24 +185,21 @@ mod tests {
 
     #[test]
     fn serial_shell_polls_the_middleware_when_its_waker_fires() {
-        let (core, waker) = spy_core();
+        let (core, slot) = spy_core();
         let server = serial::SerialServer::new(vec![serial::Line::pseudoterminal(115_200).unwrap()], core.clone());
         let stop = Arc::new(AtomicBool::new(false));
         let s2 = stop.clone();
         let t = std::thread::spawn(move || server.run(&s2));
+        // The serial server installs its waker when it starts running.
         let deadline = Instant::now() + Duration::from_secs(5);
         let waker = loop {
-            if let Some(w) = waker.lock().unwrap().clone() {
+            if let Some(w) = slot.lock().unwrap().clone() {
                 break w;
             }
             assert!(Instant::now() < deadline, "the shell installs a waker");
             std::thread::sleep(Duration::from_millis(5));
         };
-        std::thread::sleep(Duration::from_millis(50));
-        let started = Instant::now();
-        waker();
-        assert!(wait_for_polls(&core, 1));
-        assert!(started.elapsed() < MAX_BLOCK);
+        assert_wakes(&core, &waker, 3, MAX_BLOCK / 4);
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap().unwrap();
     }

@@ -11,7 +11,7 @@ use std::collections::{HashMap, VecDeque};
 use std::io::{self, IoSlice, Read, Write};
 use std::net::{Shutdown, SocketAddr};
 use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use mio::event::Event;
@@ -19,7 +19,7 @@ use mio::net::{TcpListener, TcpStream};
 use mio::{Interest, Poll, Registry, Token};
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
 
-use super::drive::{attach, serve, Inbox, Io, Spent};
+use super::drive::{attach, serve, take_poll, Inbox, Io, Spent};
 use super::{SharedCore, WakeFlag};
 use crate::core::Transmit;
 
@@ -170,12 +170,7 @@ impl TcpServer {
 
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
-        let mut poll = self
-            .poll
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .take()
-            .ok_or_else(|| io::Error::other("this TCP server is already running"))?;
+        let mut poll = take_poll(&self.poll, &format!("the TCP server on {}", self.listener.local_addr()?))?;
         let mut listener = TcpListener::from_std(self.listener.try_clone()?);
         poll.registry().register(&mut listener, LISTENER, Interest::READABLE)?;
         let mut io = TcpIo {

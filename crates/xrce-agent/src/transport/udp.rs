@@ -15,7 +15,7 @@ use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::os::fd::AsRawFd;
 use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex};
 
 use mio::event::Event;
 use mio::unix::SourceFd;
@@ -23,7 +23,7 @@ use mio::{Interest, Poll, Token};
 use socket2::{Domain, Protocol, Socket, Type};
 
 use super::batch::{RecvBatch, SendBatch};
-use super::drive::{attach, serve, Inbox, Io, Spent};
+use super::drive::{attach, serve, take_poll, Inbox, Io, Spent};
 use super::{SharedCore, WakeFlag};
 use crate::core::Transmit;
 
@@ -78,12 +78,7 @@ impl UdpServer {
 
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &AtomicBool) -> io::Result<()> {
-        let mut poll = self
-            .poll
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .take()
-            .ok_or_else(|| io::Error::other("this UDP server is already running"))?;
+        let mut poll = take_poll(&self.poll, &format!("the UDP server on {}", self.socket.local_addr()?))?;
         let fd = self.socket.as_raw_fd();
         poll.registry().register(&mut SourceFd(&fd), SOCKET, Interest::READABLE)?;
         let mut io = UdpIo {
