@@ -3,8 +3,8 @@
 //! answers each client at the source address of its frames. One thread, one `mio` loop
 //! ([`drive::serve`](super::drive::serve)) over every line and the middleware's waker. Lines are
 //! non-blocking and each has its own outbox: a line nobody reads (a pty whose client left) drops what it
-//! holds once it has not moved for [`WRITE_TIMEOUT`], and holds at most [`MAX_BACKLOG`] bytes; nothing else
-//! waits for it, and reliable streams recover.
+//! holds once it has not moved for [`WRITE_TIMEOUT`], and takes no new frame past [`MAX_BACKLOG`] bytes;
+//! nothing else waits for it, and reliable streams recover.
 //!
 //! Line settings (raw 8N1, no flow control, the baud rate) are made by the `serialport` crate, which sets
 //! any rate the driver takes (termios2 on Linux), not only the standard ones.
@@ -264,7 +264,8 @@ impl LineIo {
     /// Frames `data` for the client at `address` into the outbox.
     fn queue(&mut self, address: u8, data: &[u8], now: Instant) {
         let start = self.outbox.len();
-        if start + max_encoded_len(data.len()) > MAX_BACKLOG {
+        // A frame larger than the whole backlog still goes out alone.
+        if start > 0 && start + max_encoded_len(data.len()) > MAX_BACKLOG {
             tracing::debug!(line = %self.line.name, "line backlog full, frame dropped");
             return;
         }
