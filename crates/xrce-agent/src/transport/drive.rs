@@ -1,11 +1,12 @@
 //! The event loop every shell runs, and the one place shells call into the core.
 //!
-//! A shell (UDP, TCP, serial) is an [`Io`]: it registers its sockets or lines with a `mio` [`Poll`], notes
-//! their readiness, reads without blocking and sends or queues what the core produced. [`serve`] waits for
-//! readiness, the core's next timer or the middleware's waker ([`attach`]), then [`Driver::drive`] runs one
-//! turn under one lock: give back the buffers sent last turn, hand the input to the core, send the
-//! ACKNACKs owed at once (UDP), poll the middleware if it woke, run due timers, take every message to send.
-//! The sends themselves happen after the lock is released.
+//! A shell (UDP, TCP, serial) is an [`Io`]: it registers its sockets or lines with the loop's `mio` poll,
+//! notes their readiness, reads without blocking and sends or queues what the core produced. An
+//! [`EventLoop`] waits for readiness, the core's next timer or the middleware's waker (a `mio::Waker` behind
+//! a [`WakeFlag`]), answers the `-d` discovery responder if the server has one, then [`Driver::drive`] runs one
+//! turn under one lock: give back the buffers sent last turn, hand the input to the core, send the ACKNACKs
+//! owed at once (UDP), poll the middleware if it woke, run due timers, take every message to send. The sends
+//! themselves happen after the lock is released.
 
 use std::fmt::Debug;
 use std::hash::Hash;
@@ -14,9 +15,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use mio::event::Event;
-use mio::{Events, Poll, Token};
+use std::os::fd::AsRawFd;
 
+use mio::event::Event;
+use mio::unix::SourceFd;
+use mio::{Events, Interest, Poll, Registry, Token};
+
+use super::discovery::DiscoveryServer;
 use super::{hexdump, lock, DynMiddleware, SharedCore, WakeFlag, MAX_BLOCK};
 use crate::core::{AgentCore, Transmit};
 
@@ -160,10 +165,10 @@ pub fn block_for(next: Option<Instant>, now: Instant) -> Duration {
     next.map_or(MAX_BLOCK, |t| t.saturating_duration_since(now)).clamp(Duration::from_millis(1), MAX_BLOCK)
 }
 
-/// Prepares `core` for a shell polled by `poll`: anchors its TIMESTAMP_REPLY clock to the system clock and
+/// Prepares `core` for a loop polled by `poll`: anchors its TIMESTAMP_REPLY clock to the system clock and
 /// gives its middleware a waker that raises the returned flag and wakes the poll ([`WAKER`]). Many wakes
 /// between two turns cost one system call and one middleware poll.
-pub fn attach<E: Copy + Eq + Hash + Debug>(core: &SharedCore<E>, poll: &Poll) -> io::Result<Arc<WakeFlag>> {
+fn attach<E: Copy + Eq + Hash + Debug>(core: &SharedCore<E>, poll: &Poll) -> io::Result<Arc<WakeFlag>> {
     let waker = mio::Waker::new(poll.registry(), WAKER)?;
     let flag = Arc::new(WakeFlag::default());
     let raised = flag.clone();
@@ -179,28 +184,72 @@ pub fn attach<E: Copy + Eq + Hash + Debug>(core: &SharedCore<E>, poll: &Poll) ->
     Ok(flag)
 }
 
-/// Takes a server's poll (made at bind so the middleware's waker exists before the loop runs) for its loop;
-/// `server` names it in the error when it is already running.
-pub fn take_poll(slot: &Mutex<Option<Poll>>, server: &str) -> io::Result<Poll> {
-    slot.lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .take()
-        .ok_or_else(|| io::Error::other(format!("{server} is already running")))
+/// What a server keeps for its loop: the core, the middleware's wake flag, the poll (made with the server, so
+/// the middleware's waker exists before the loop runs) and the `-d` responder the loop answers.
+#[derive(Debug)]
+pub struct EventLoop<E> {
+    core: SharedCore<E>,
+    wake: Arc<WakeFlag>,
+    poll: Mutex<Option<Poll>>,
+    discovery: Option<DiscoveryServer>,
 }
 
+impl<E: Copy + Eq + Hash + Debug> EventLoop<E> {
+    /// A loop for `core`; gives its middleware a waker that wakes this loop.
+    pub fn new(core: SharedCore<E>) -> io::Result<Self> {
+        let poll = Poll::new()?;
+        let wake = attach(&core, &poll)?;
+        Ok(Self { core, wake, poll: Mutex::new(Some(poll)), discovery: None })
+    }
+
+    /// Answers discovery requests from this loop.
+    pub fn set_discovery(&mut self, discovery: DiscoveryServer) {
+        self.discovery = Some(discovery);
+    }
+
+    /// Runs until `stop` is set: `setup` registers the shell's sources and builds its [`Io`], which is
+    /// handed back when the loop ends. `server` names the server in the error when it already runs.
+    pub fn run<I: Io<E>>(
+        &self,
+        server: &str,
+        stop: &AtomicBool,
+        setup: impl FnOnce(&Registry) -> io::Result<I>,
+    ) -> io::Result<I> {
+        let mut poll = self
+            .poll
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+            .ok_or_else(|| io::Error::other(format!("{server} is already running")))?;
+        let mut io = setup(poll.registry())?;
+        serve(&self.core, &mut poll, &self.wake, &mut io, self.discovery.as_ref(), stop)?;
+        Ok(io)
+    }
+}
+
+/// The discovery responder's token in a shell's poll.
+const DISCOVERY: Token = Token(usize::MAX);
+
 /// Runs a shell until `stop` is set (checked at least every [`MAX_BLOCK`]): waits for readiness, the core's
-/// next timer or the waker, then drives a turn.
-pub fn serve<E, I>(
+/// next timer or the waker, then drives a turn. A `-d` discovery responder, if any, is answered from the
+/// same loop.
+fn serve<E, I>(
     core: &SharedCore<E>,
     poll: &mut Poll,
     wake: &WakeFlag,
     io: &mut I,
+    discovery: Option<&DiscoveryServer>,
     stop: &AtomicBool,
 ) -> io::Result<()>
 where
     E: Copy + Eq + Hash + Debug,
     I: Io<E>,
 {
+    let discovery_fd = discovery.map(|d| d.socket().as_raw_fd());
+    if let (Some(d), Some(fd)) = (discovery, &discovery_fd) {
+        d.set_nonblocking()?;
+        poll.registry().register(&mut SourceFd(fd), DISCOVERY, Interest::READABLE)?;
+    }
     let mut driver = Driver::default();
     let mut events = Events::with_capacity(256);
     let mut wait = Duration::ZERO;
@@ -211,11 +260,22 @@ where
                     return Err(e);
                 }
             }
-            for event in events.iter().filter(|e| e.token() != WAKER) {
-                io.ready(event);
+            for event in &events {
+                match event.token() {
+                    WAKER => {}
+                    DISCOVERY => answer_discovery(discovery),
+                    _ => io.ready(event),
+                }
             }
         }
         wait = driver.drive(core, wake.take(), io)?;
     }
     Ok(())
+}
+
+fn answer_discovery(discovery: Option<&DiscoveryServer>) {
+    if let Some(Err(e)) = discovery.map(DiscoveryServer::answer_queued) {
+        // The agent keeps serving its clients.
+        tracing::warn!(port = ?discovery.and_then(|d| d.local_addr().ok()), "discovery socket failed: {e}");
+    }
 }

@@ -1,7 +1,7 @@
 //! Transport shells: they own the sockets and the clock, and move bytes between them and a shared
-//! [`AgentCore`](crate::core::AgentCore). The core sits behind a mutex so the library API
+//! [`AgentCore`]. The core sits behind a mutex so the library API
 //! ([`crate::agent::Agent`]) can act on it while a server runs. Every server is one thread running one
-//! `mio` event loop ([`drive::serve`]); each lock is held for one turn of it ([`drive::Driver::drive`]).
+//! `mio` event loop ([`drive::EventLoop`]); each lock is held for one turn of it ([`drive::Driver::drive`]).
 
 pub mod batch;
 pub mod discovery;

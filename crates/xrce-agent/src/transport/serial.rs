@@ -1,7 +1,7 @@
 //! Serial shells (`serial`, `multiserial`, `pseudoterminal`): XRCE messages in HDLC-like frames (spec §12.3,
 //! [`xrce_proto::framing::serial`]). The agent's local address is 0; it accepts frames sent to 0 and
 //! answers each client at the source address of its frames. One thread, one `mio` loop
-//! ([`drive::serve`](super::drive::serve)) over every line and the middleware's waker. Lines are
+//! ([`EventLoop`]) over every line and the middleware's waker. Lines are
 //! non-blocking and each has its own outbox: a line nobody reads (a pty whose client left) drops what it
 //! holds once it has not moved for [`WRITE_TIMEOUT`], and takes no new frame past [`MAX_BACKLOG`] bytes;
 //! nothing else waits for it, and reliable streams recover.
@@ -19,10 +19,10 @@ use std::time::{Duration, Instant};
 
 use mio::event::Event as Readiness;
 use mio::unix::SourceFd;
-use mio::{Interest, Poll, Registry, Token};
+use mio::{Interest, Registry, Token};
 use xrce_proto::framing::serial::{encode_frame, max_encoded_len, AddressFilter, Event, FrameDecoder};
 
-use super::drive::{attach, serve, Inbox, Io, Spent};
+use super::drive::{EventLoop, Inbox, Io, Spent};
 use super::{SharedCore, MAX_BLOCK};
 use crate::core::Transmit;
 
@@ -138,28 +138,28 @@ impl SerialServer {
     /// Serves until `stop` is set (checked at least every [`MAX_BLOCK`]).
     pub fn run(self, stop: &Arc<AtomicBool>) -> io::Result<()> {
         if u16::try_from(self.lines.len()).is_err() {
-            return Err(io::Error::other("too many serial lines"));
+            return Err(io::Error::other(format!("too many serial lines: {}", self.lines.len())));
         }
-        let mut poll = Poll::new()?;
-        let wake = attach(&self.core, &poll)?;
+        let name = format!("the serial server on {}", self.names().join(" "));
         let now = Instant::now();
-        let mut lines = Vec::with_capacity(self.lines.len());
-        for (index, line) in self.lines.into_iter().enumerate() {
-            let fd = line.file.as_raw_fd();
-            poll.registry().register(&mut SourceFd(&fd), token(index), Interest::READABLE)?;
-            lines.push(LineIo {
-                line,
-                decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
-                // Bytes may have arrived before the registration.
-                readable: true,
-                retry_at: None,
-                outbox: Vec::new(),
-                progress_at: now,
-                writable_interest: false,
-            });
-        }
-        let mut io = SerialIo { lines, registry: poll.registry().try_clone()?, buf: vec![0u8; 4096] };
-        serve(&self.core, &mut poll, &wake, &mut io, stop)
+        EventLoop::new(self.core)?.run(&name, stop, |registry| {
+            let mut lines = Vec::with_capacity(self.lines.len());
+            for (index, line) in self.lines.into_iter().enumerate() {
+                registry.register(&mut SourceFd(&line.file.as_raw_fd()), token(index), Interest::READABLE)?;
+                lines.push(LineIo {
+                    line,
+                    decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
+                    // Bytes may have arrived before the registration.
+                    readable: true,
+                    retry_at: None,
+                    outbox: Vec::new(),
+                    progress_at: now,
+                    writable_interest: false,
+                });
+            }
+            Ok(SerialIo { lines, registry: registry.try_clone()?, buf: vec![0u8; 4096] })
+        })?;
+        Ok(())
     }
 }
 

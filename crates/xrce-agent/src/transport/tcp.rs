@@ -1,7 +1,7 @@
 //! TCP shell (IPv4 and IPv6): messages framed by a 2-byte little-endian length (spec §12.2), many
-//! connections, one thread. A `mio` event loop ([`drive::serve`](super::drive::serve)) accepts, reads every
+//! connections, one thread. A `mio` event loop ([`EventLoop`]) accepts, reads every
 //! connection without blocking (partial reads reassembled by
-//! [`TcpDecoder`](xrce_proto::framing::tcp::TcpDecoder)), runs the core's timers, is woken by the
+//! [`TcpDecoder`]), runs the core's timers, is woken by the
 //! middleware through a [`mio::Waker`], and writes each connection from its own outbox with
 //! vectored writes as far as the socket takes them: a client that stops reading only fills its own outbox,
 //! and is closed once that holds [`MAX_OUTBOX_BYTES`] or has not moved for [`WRITE_TIMEOUT`]. Nothing else
@@ -11,16 +11,17 @@ use std::collections::{HashMap, VecDeque};
 use std::io::{self, IoSlice, Read, Write};
 use std::net::{Shutdown, SocketAddr};
 use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use mio::event::Event;
 use mio::net::{TcpListener, TcpStream};
-use mio::{Interest, Poll, Registry, Token};
+use mio::{Interest, Registry, Token};
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
 
-use super::drive::{attach, serve, take_poll, Inbox, Io, Spent};
-use super::{SharedCore, WakeFlag};
+use super::discovery::DiscoveryServer;
+use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::SharedCore;
 use crate::core::Transmit;
 
 /// Most simultaneous connections; more are closed on accept.
@@ -72,10 +73,7 @@ fn number_of(token: Token) -> Option<u64> {
 #[derive(Debug)]
 pub struct TcpServer {
     listener: std::net::TcpListener,
-    core: SharedCore<ConnId>,
-    wake: Arc<WakeFlag>,
-    /// Created at bind so the middleware's waker exists before the loop runs; the loop takes it.
-    poll: Mutex<Option<Poll>>,
+    looped: EventLoop<ConnId>,
 }
 
 /// One connection: its socket, the reassembly of what it sends and the framed messages waiting to go out.
@@ -158,9 +156,14 @@ impl TcpServer {
     pub fn bind(addr: SocketAddr, core: SharedCore<ConnId>) -> io::Result<Self> {
         let listener = std::net::TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
-        let poll = Poll::new()?;
-        let wake = attach(&core, &poll)?;
-        Ok(Self { listener, core, wake, poll: Mutex::new(Some(poll)) })
+        Ok(Self { listener, looped: EventLoop::new(core)? })
+    }
+
+    /// Answers discovery requests (`-d`) from this server's loop.
+    #[must_use]
+    pub fn with_discovery(mut self, discovery: DiscoveryServer) -> Self {
+        self.looped.set_discovery(discovery);
+        self
     }
 
     /// The bound address.
@@ -170,22 +173,23 @@ impl TcpServer {
 
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
-        let mut poll = take_poll(&self.poll, &format!("the TCP server on {}", self.listener.local_addr()?))?;
-        let mut listener = TcpListener::from_std(self.listener.try_clone()?);
-        poll.registry().register(&mut listener, LISTENER, Interest::READABLE)?;
-        let mut io = TcpIo {
-            listener,
-            registry: poll.registry().try_clone()?,
-            conns: HashMap::new(),
-            next_id: 1,
-            buf: vec![0u8; 64 * 1024],
-            readable: Vec::new(),
-        };
-        let served = serve(&self.core, &mut poll, &self.wake, &mut io, stop);
+        let name = format!("the TCP server on {}", self.listener.local_addr()?);
+        let mut io = self.looped.run(&name, stop, |registry| {
+            let mut listener = TcpListener::from_std(self.listener.try_clone()?);
+            registry.register(&mut listener, LISTENER, Interest::READABLE)?;
+            Ok(TcpIo {
+                listener,
+                registry: registry.try_clone()?,
+                conns: HashMap::new(),
+                next_id: 1,
+                buf: vec![0u8; 64 * 1024],
+                readable: Vec::new(),
+            })
+        })?;
         for (_, conn) in io.conns.drain() {
             let _ = conn.stream.shutdown(Shutdown::Both);
         }
-        served
+        Ok(())
     }
 }
 

@@ -1,6 +1,6 @@
 //! UDP shell (IPv4 and IPv6): one XRCE message per datagram, replies to the datagram's source (spec §12.1).
 //!
-//! One thread, one `mio` loop ([`drive::serve`](super::drive::serve)) on the socket and the middleware's
+//! One thread, one `mio` loop ([`EventLoop`]) on the socket and the middleware's
 //! waker. When the socket is readable a turn takes every queued datagram up to a batch
 //! ([`batch`](super::batch), `recvmmsg` on Linux), runs them through the core under one lock, sends the
 //! ACKNACKs owed at once ([`AgentCore::poll_acknack`](crate::core::AgentCore::poll_acknack)), then delivers
@@ -15,16 +15,16 @@ use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::os::fd::AsRawFd;
 use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex};
 
 use mio::event::Event;
 use mio::unix::SourceFd;
-use mio::{Interest, Poll, Token};
+use mio::{Interest, Token};
 use socket2::{Domain, Protocol, Socket, Type};
 
 use super::batch::{RecvBatch, SendBatch};
-use super::drive::{attach, serve, take_poll, Inbox, Io, Spent};
-use super::{SharedCore, WakeFlag};
+use super::discovery::DiscoveryServer;
+use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::SharedCore;
 use crate::core::Transmit;
 
 /// Largest datagram received (eProsima's agent buffer).
@@ -38,10 +38,7 @@ const SOCKET: Token = Token(1);
 #[derive(Debug)]
 pub struct UdpServer {
     socket: UdpSocket,
-    core: SharedCore<SocketAddr>,
-    wake: Arc<WakeFlag>,
-    /// Created at bind so the middleware's waker exists before the loop runs; the loop takes it.
-    poll: Mutex<Option<Poll>>,
+    looped: EventLoop<SocketAddr>,
 }
 
 /// Binds a UDP socket with enlarged buffers.
@@ -66,9 +63,14 @@ impl UdpServer {
     /// A server on a bound socket (e.g. one from [`bind_socket`] with options of the caller's); installs the
     /// middleware waker.
     pub fn from_socket(socket: UdpSocket, core: SharedCore<SocketAddr>) -> io::Result<Self> {
-        let poll = Poll::new()?;
-        let wake = attach(&core, &poll)?;
-        Ok(Self { socket, core, wake, poll: Mutex::new(Some(poll)) })
+        Ok(Self { socket, looped: EventLoop::new(core)? })
+    }
+
+    /// Answers discovery requests (`-d`) from this server's loop.
+    #[must_use]
+    pub fn with_discovery(mut self, discovery: DiscoveryServer) -> Self {
+        self.looped.set_discovery(discovery);
+        self
     }
 
     /// The bound address.
@@ -78,20 +80,19 @@ impl UdpServer {
 
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &AtomicBool) -> io::Result<()> {
-        let mut poll = take_poll(&self.poll, &format!("the UDP server on {}", self.socket.local_addr()?))?;
-        let fd = self.socket.as_raw_fd();
-        poll.registry().register(&mut SourceFd(&fd), SOCKET, Interest::READABLE)?;
-        let mut io = UdpIo {
-            socket: &self.socket,
-            rx: RecvBatch::new(MAX_DATAGRAM),
-            tx: SendBatch::new(),
-            // Datagrams may have been queued before the registration.
-            readable: true,
-            fetched: 0,
-        };
-        let served = serve(&self.core, &mut poll, &self.wake, &mut io, stop);
-        let _ = poll.registry().deregister(&mut SourceFd(&fd));
-        served
+        let name = format!("the UDP server on {}", self.socket.local_addr()?);
+        self.looped.run(&name, stop, |registry| {
+            registry.register(&mut SourceFd(&self.socket.as_raw_fd()), SOCKET, Interest::READABLE)?;
+            Ok(UdpIo {
+                socket: &self.socket,
+                rx: RecvBatch::new(MAX_DATAGRAM),
+                tx: SendBatch::new(),
+                // Datagrams may have been queued before the registration.
+                readable: true,
+                fetched: 0,
+            })
+        })?;
+        Ok(())
     }
 }
 
