@@ -26,6 +26,7 @@ use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, Wit
 use crate::middleware::profiles::StoreProfiles;
 use crate::middleware::ros_graph::RosGraphMode;
 use crate::middleware::{DdsOptions, MiddlewareKind, UnsupportedMiddleware};
+use crate::transport::discovery::DiscoveryServer;
 use crate::transport::tcp::{ConnId, TcpServer};
 use crate::transport::udp::UdpServer;
 use crate::transport::{lock, DynMiddleware, SharedCore};
@@ -291,8 +292,6 @@ pub struct AgentInstance {
     agent: AgentHandle,
     stop: Arc<AtomicBool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
-    /// The `-d` discovery server's thread.
-    discovery: Option<JoinHandle<std::io::Result<()>>>,
     local_addr: Option<SocketAddr>,
 }
 
@@ -325,8 +324,12 @@ impl AgentInstance {
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
-                let server = UdpServer::bind(addr, agent.core()).map_err(cannot_open(format!("UDP port {addr}")))?;
+                let mut server =
+                    UdpServer::bind(addr, agent.core()).map_err(cannot_open(format!("UDP port {addr}")))?;
                 let local = server.local_addr()?;
+                if let Some(d) = discovery_for(&config, local.port())? {
+                    server = server.with_discovery(d);
+                }
                 tracing::info!(%local, middleware = kind.name(), "UDP agent running");
                 let stop2 = stop.clone();
                 let handle = std::thread::Builder::new().name("xrce-udp".into()).spawn(move || server.run(&stop2))?;
@@ -341,8 +344,12 @@ impl AgentInstance {
                 )?;
                 load_refs(&config, &agent.profiles)?;
                 let addr = bind_addr(&config.transport, port);
-                let server = TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
+                let mut server =
+                    TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
                 let local = server.local_addr()?;
+                if let Some(d) = discovery_for(&config, local.port())? {
+                    server = server.with_discovery(d);
+                }
                 tracing::info!(%local, middleware = kind.name(), "TCP agent running");
                 let stop2 = stop.clone();
                 let handle = std::thread::Builder::new().name("xrce-tcp".into()).spawn(move || server.run(&stop2))?;
@@ -378,18 +385,7 @@ impl AgentInstance {
         if config.discovery.is_some() && local_addr.is_none() {
             tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
         }
-        let service_port = local_addr.map(|a| a.port());
-        let discovery =
-            match config.discovery.zip(service_port).map(|(port, service)| start_discovery(port, service, &stop)) {
-                Some(Ok(handle)) => Some(handle),
-                Some(Err(e)) => {
-                    stop.store(true, Ordering::Relaxed);
-                    let _ = server.join();
-                    return Err(e);
-                }
-                None => None,
-            };
-        Ok(Self { config, agent, stop, server: Some(server), discovery, local_addr })
+        Ok(Self { config, agent, stop, server: Some(server), local_addr })
     }
 
     /// The command line it was built from.
@@ -426,9 +422,6 @@ impl AgentInstance {
     /// Stops the agent and waits for its server to finish.
     pub fn stop(&mut self) -> Result<(), AgentError> {
         self.stop.store(true, Ordering::Relaxed);
-        if let Some(Ok(Err(e))) = self.discovery.take().map(JoinHandle::join) {
-            tracing::warn!("discovery server: {e}");
-        }
         match self.server.take().map(JoinHandle::join) {
             Some(Ok(result)) => Ok(result?),
             Some(Err(_)) => Err(AgentError::Io(std::io::Error::other("server thread panicked"))),
@@ -473,16 +466,14 @@ fn start_serial(
     Ok((AgentHandle::Serial(agent), handle, None))
 }
 
-/// Starts the `-d` discovery server on `port` (joining 239.255.0.2), advertising `service_port`.
-fn start_discovery(
-    port: u16,
-    service_port: u16,
-    stop: &Arc<AtomicBool>,
-) -> Result<JoinHandle<std::io::Result<()>>, AgentError> {
-    let server = crate::transport::discovery::DiscoveryServer::bind_multicast(port, service_port)?;
+/// The `-d` discovery responder on its port (joining 239.255.0.2), advertising `service_port`, if asked for;
+/// the server answers it from its own loop.
+fn discovery_for(config: &Config, service_port: u16) -> Result<Option<DiscoveryServer>, AgentError> {
+    let Some(port) = config.discovery else { return Ok(None) };
+    let server = DiscoveryServer::bind_multicast(port, service_port)
+        .map_err(cannot_open(format!("discovery port 0.0.0.0:{port}")))?;
     tracing::info!(port, service_port, "discovery server running");
-    let stop = stop.clone();
-    Ok(std::thread::Builder::new().name("xrce-discovery".into()).spawn(move || server.run(&stop))?)
+    Ok(Some(server))
 }
 
 fn load_refs(config: &Config, profiles: &StoreProfiles) -> Result<(), AgentError> {

@@ -11,7 +11,8 @@
 //! * `-P/--p2p` needs a port; `-p/--port` is mandatory for the IP transports.
 //! * `-m/--middleware` is one of `ced`, `dds`, `rtps`, default `dds`.
 //! * `-r/--refs` must name an existing file (checked while parsing, as eProsima does).
-//! * `-b/--baudrate` defaults to 115200; eProsima also accepts non-standard numeric rates.
+//! * `-b/--baudrate` defaults to 115200; non-standard numeric rates (250000, ...) are accepted, as eProsima
+//!   does, and set on Linux through termios2.
 //! * `serial` takes its device from `-D/--dev`, or from the first line of the file given with `-f/--file`;
 //!   `multiserial` takes a space-separated list in one `-D/--devs` argument, or one device per line of
 //!   `-f/--file`. The two sources are mutually exclusive and one is required. `-f` is this device file,

@@ -61,17 +61,23 @@ impl RecvBatch {
         }
     }
 
-    /// Waits (up to the socket's read timeout) for one datagram, then takes every queued one up to
-    /// [`BATCH`]. Returns how many were received (0 on timeout).
+    /// Takes every queued datagram up to [`BATCH`] without waiting (the shell waits for readiness on its
+    /// event loop). Returns how many were received: 0 only when none is queued. A pending socket error (the
+    /// ICMP error of an earlier send to a closed port, a signal) is passed over, since datagrams may wait
+    /// behind it and an edge-triggered loop would hear of them only at the next arrival.
     pub fn recv(&mut self, socket: &UdpSocket) -> io::Result<usize> {
         self.count = 0;
-        match self.recv_inner(socket) {
-            Ok(n) => {
-                self.count = n;
-                Ok(n)
+        loop {
+            match self.recv_inner(socket) {
+                Ok(n) => {
+                    self.count = n;
+                    return Ok(n);
+                }
+                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => return Ok(0),
+                // Reading reports and clears one error each time: this ends.
+                Err(e) if is_transient(&e) => {}
+                Err(e) => return Err(e),
             }
-            Err(e) if is_transient(&e) => Ok(0),
-            Err(e) => Err(e),
         }
     }
 
@@ -85,8 +91,14 @@ impl RecvBatch {
         let mut chunks = bufs.chunks_mut(*slot);
         let mut iovs: [[IoSliceMut<'_>; 1]; BATCH] =
             std::array::from_fn(|_| [IoSliceMut::new(chunks.next().unwrap_or(&mut []))]);
-        let results = recvmmsg(socket.as_raw_fd(), headers, iovs.iter_mut(), MsgFlags::MSG_WAITFORONE, None)
-            .map_err(io::Error::from)?;
+        let results = recvmmsg(
+            socket.as_raw_fd(),
+            headers,
+            iovs.iter_mut(),
+            MsgFlags::MSG_WAITFORONE | MsgFlags::MSG_DONTWAIT,
+            None,
+        )
+        .map_err(io::Error::from)?;
         let mut n = 0;
         for (r, (len, addr)) in results.zip(lens.iter_mut().zip(addrs.iter_mut())) {
             *len = r.bytes;

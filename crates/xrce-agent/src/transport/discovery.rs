@@ -1,7 +1,8 @@
 //! Agent discovery server (`-d [port]`, spec §13.2): answers any GET_INFO with an INFO listing the agent's
 //! local IPv4 interfaces as MEDIUM locators with the agent's service port. [`DiscoveryServer::bind_multicast`]
 //! listens on the port and joins 239.255.0.2 (the agent's `-d`); [`DiscoveryServer::bind`] listens on one
-//! address without multicast (tests, unicast discovery).
+//! address without multicast (tests, unicast discovery). The agent's UDP and TCP servers answer it from their
+//! own event loop ([`DiscoveryServer::answer_queued`]); [`DiscoveryServer::run`] serves it alone.
 
 use std::io;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, UdpSocket};
@@ -99,34 +100,51 @@ impl DiscoveryServer {
         self.socket.set_read_timeout(Some(MAX_BLOCK))?;
         let mut buf = vec![0u8; 1500];
         while !stop.load(Ordering::Relaxed) {
-            let (n, from) = match self.socket.recv_from(&mut buf) {
-                Ok(r) => r,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::WouldBlock
-                            | io::ErrorKind::TimedOut
-                            | io::ErrorKind::Interrupted
-                            | io::ErrorKind::ConnectionRefused
-                    ) =>
-                {
-                    continue
-                }
-                Err(e) => return Err(e),
-            };
-            if matches!(from.ip(), IpAddr::V4(ip) if ip.is_multicast()) {
-                continue;
-            }
-            let Some(reply) = answer(buf.get(..n).unwrap_or(&[]), self.service_port, &self.addresses) else {
-                tracing::debug!(peer = %from, "discovery: not a GET_INFO, ignored");
-                continue;
-            };
-            tracing::debug!(peer = %from, "discovery: answering");
-            if let Err(e) = self.socket.send_to(&reply, from) {
-                tracing::debug!(peer = %from, "discovery answer failed: {e}");
-            }
+            self.answer_next(&mut buf)?;
         }
         Ok(())
+    }
+
+    /// The socket, for an event loop to register (after [`Self::set_nonblocking`]).
+    pub fn socket(&self) -> &UdpSocket {
+        &self.socket
+    }
+
+    /// Makes [`Self::answer_queued`] return at once when no request waits.
+    pub fn set_nonblocking(&self) -> io::Result<()> {
+        self.socket.set_nonblocking(true)
+    }
+
+    /// Answers every request queued on a non-blocking socket.
+    pub fn answer_queued(&self) -> io::Result<()> {
+        let mut buf = [0u8; 1500];
+        while self.answer_next(&mut buf)? {}
+        Ok(())
+    }
+
+    /// Waits for one request (as the socket allows) and answers it; false when none came.
+    fn answer_next(&self, buf: &mut [u8]) -> io::Result<bool> {
+        let (n, from) = match self.socket.recv_from(buf) {
+            Ok(r) => r,
+            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => return Ok(false),
+            // A signal, or the ICMP error of an earlier answer (consumed by this call): requests may wait behind.
+            Err(e) if matches!(e.kind(), io::ErrorKind::Interrupted | io::ErrorKind::ConnectionRefused) => {
+                return Ok(true)
+            }
+            Err(e) => return Err(e),
+        };
+        if matches!(from.ip(), IpAddr::V4(ip) if ip.is_multicast()) {
+            return Ok(true);
+        }
+        let Some(reply) = answer(buf.get(..n).unwrap_or(&[]), self.service_port, &self.addresses) else {
+            tracing::debug!(peer = %from, "discovery: not a GET_INFO, ignored");
+            return Ok(true);
+        };
+        tracing::debug!(peer = %from, "discovery: answering");
+        if let Err(e) = self.socket.send_to(&reply, from) {
+            tracing::debug!(peer = %from, "discovery answer failed: {e}");
+        }
+        Ok(true)
     }
 }
 
@@ -157,15 +175,15 @@ mod tests {
         assert!(answer(&[0x80, 0, 0, 0], 8888, &[]).is_none());
     }
 
-    /// Unicast on loopback only: our client's discovery finds the agent's service port.
-    #[test]
-    fn client_discovery_finds_the_agent_by_unicast() {
-        let server =
-            DiscoveryServer::bind("127.0.0.1:0".parse().unwrap(), 4242, Some(vec![Ipv4Addr::LOCALHOST])).unwrap();
-        let addr = server.local_addr().unwrap();
+    /// Our client's discovery towards `addr`, stopping at the first agent, while `serve` runs on a thread of
+    /// its own until the search ends; what it found.
+    fn discover_while(
+        addr: SocketAddr,
+        serve: impl FnOnce(&AtomicBool) -> io::Result<()> + Send + 'static,
+    ) -> Vec<SocketAddr> {
         let stop = Arc::new(AtomicBool::new(false));
         let s2 = stop.clone();
-        let t = std::thread::spawn(move || server.run(&s2));
+        let t = std::thread::spawn(move || serve(&s2));
         let mut found = Vec::new();
         let stopped = xrce_client::transport::discovery::discovery_agents(
             3,
@@ -180,6 +198,38 @@ mod tests {
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap().unwrap();
         assert!(stopped);
+        found
+    }
+
+    /// Unicast on loopback only: our client's discovery finds the agent's service port.
+    #[test]
+    fn client_discovery_finds_the_agent_by_unicast() {
+        let server =
+            DiscoveryServer::bind("127.0.0.1:0".parse().unwrap(), 4242, Some(vec![Ipv4Addr::LOCALHOST])).unwrap();
+        let addr = server.local_addr().unwrap();
+        let found = discover_while(addr, move |stop| server.run(stop));
         assert_eq!(found, vec![SocketAddr::from(([127, 0, 0, 1], 4242))]);
+    }
+
+    /// A UDP server answers discovery from its own loop (the agent's `-d`, here by unicast on loopback).
+    #[test]
+    fn the_udp_server_answers_discovery_from_its_loop() {
+        use crate::middleware::ced::Ced;
+        use crate::middleware::describe::FallbackProfiles;
+        let core = crate::core::AgentCore::new(
+            crate::core::CoreConfig::default(),
+            Box::new(Ced::new(Arc::new(FallbackProfiles))) as super::super::DynMiddleware,
+        );
+        let server =
+            super::super::udp::UdpServer::bind("127.0.0.1:0".parse().unwrap(), Arc::new(std::sync::Mutex::new(core)))
+                .unwrap();
+        let service = server.local_addr().unwrap();
+        let discovery =
+            DiscoveryServer::bind("127.0.0.1:0".parse().unwrap(), service.port(), Some(vec![Ipv4Addr::LOCALHOST]))
+                .unwrap();
+        let addr = discovery.local_addr().unwrap();
+        let server = server.with_discovery(discovery);
+        let found = discover_while(addr, move |stop| server.run(stop));
+        assert_eq!(found, vec![service]);
     }
 }

@@ -1,21 +1,22 @@
 //! Transport shells: they own the sockets and the clock, and move bytes between them and a shared
-//! [`AgentCore`](crate::core::AgentCore). The core sits behind a mutex so the library API
-//! ([`crate::agent::Agent`]) can act on it while a server runs; each lock is held for one datagram or one
-//! timer run.
+//! [`AgentCore`]. The core sits behind a mutex so the library API
+//! ([`crate::agent::Agent`]) can act on it while a server runs. Every server is one thread running one
+//! `mio` event loop ([`drive::EventLoop`]); each lock is held for one turn of it ([`drive::Driver::drive`]).
 
 pub mod batch;
 pub mod discovery;
+pub mod drive;
 #[cfg(target_os = "linux")]
 pub mod serial;
 pub mod tcp;
 pub mod udp;
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 
 use crate::core::AgentCore;
-use crate::middleware::{Middleware, Waker};
+use crate::middleware::Middleware;
 
 /// The middleware type the shells run: any middleware, boxed.
 pub type DynMiddleware = Box<dyn Middleware + Send>;
@@ -31,36 +32,6 @@ pub fn lock<E>(core: &SharedCore<E>) -> MutexGuard<'_, AgentCore<E, DynMiddlewar
     core.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
-/// Anchors the core's TIMESTAMP_REPLY clock to the system clock.
-pub fn anchor_wall_clock<E, M>(core: &mut AgentCore<E, M>)
-where
-    E: Copy + Eq + std::hash::Hash + std::fmt::Debug,
-    M: Middleware,
-{
-    let since_epoch = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
-    core.set_wall_clock(Instant::now(), since_epoch);
-}
-
-/// How long to block waiting for input given the core's next timer.
-pub fn block_for(next: Option<Instant>, now: Instant) -> Duration {
-    next.map_or(MAX_BLOCK, |t| t.saturating_duration_since(now)).clamp(Duration::from_millis(1), MAX_BLOCK)
-}
-
-/// The work a shell's turn owes the core besides input: polls the middleware if its waker fired, runs the
-/// timers that are due.
-pub fn run_due<E, M>(core: &mut AgentCore<E, M>, woken: bool, now: Instant)
-where
-    E: Copy + Eq + std::hash::Hash + std::fmt::Debug,
-    M: Middleware,
-{
-    if woken {
-        core.poll_middleware(now);
-    }
-    if core.poll_timeout().is_some_and(|t| t <= now) {
-        core.handle_timeout(now);
-    }
-}
-
 /// Logs a message in hex at trace level (verbosity 6), as eProsima's agent does.
 pub fn hexdump(direction: &str, peer: &dyn std::fmt::Debug, bytes: &[u8]) {
     if tracing::enabled!(tracing::Level::TRACE) {
@@ -69,8 +40,9 @@ pub fn hexdump(direction: &str, peer: &dyn std::fmt::Debug, bytes: &[u8]) {
     }
 }
 
-/// A flag a threaded middleware raises (through its [`Waker`]) when samples arrived; the shell clears it and
-/// runs [`AgentCore::poll_middleware`]. Many wakes between two polls cost one poll.
+/// A flag a threaded middleware raises (through its [`Waker`](crate::middleware::Waker)) when samples
+/// arrived; the shell clears it and runs [`AgentCore::poll_middleware`]. Many wakes between two polls cost
+/// one poll.
 #[derive(Debug, Default)]
 pub struct WakeFlag {
     pending: AtomicBool,
@@ -88,71 +60,13 @@ impl WakeFlag {
     }
 }
 
-/// Installs a waker that raises `flag` and unblocks a UDP shell blocked on `server` by sending an empty
-/// datagram from a loopback socket to it. Returns the waker socket's address (its datagrams are not XRCE).
-pub fn install_udp_waker<E, M>(
-    core: &mut AgentCore<E, M>,
-    server: std::net::SocketAddr,
-    flag: Arc<WakeFlag>,
-) -> std::io::Result<std::net::SocketAddr>
-where
-    E: Copy + Eq + std::hash::Hash + std::fmt::Debug,
-    M: Middleware,
-{
-    use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, UdpSocket};
-    let loopback: IpAddr = if server.is_ipv4() { Ipv4Addr::LOCALHOST.into() } else { Ipv6Addr::LOCALHOST.into() };
-    let target = if server.ip().is_unspecified() { SocketAddr::new(loopback, server.port()) } else { server };
-    let socket = UdpSocket::bind(SocketAddr::new(if target.ip().is_loopback() { loopback } else { target.ip() }, 0))?;
-    let local = socket.local_addr()?;
-    let waker: Waker = Arc::new(move || {
-        if flag.raise() {
-            // A lost wake-up datagram only delays the poll to the shell's next turn (at most MAX_BLOCK).
-            let _ = socket.send_to(&[], target);
-        }
-    });
-    core.middleware_mut().set_waker(waker);
-    Ok(local)
-}
-
-/// A flag with a condition variable, for shells whose loop can wait on it (the TCP timer thread).
-#[derive(Debug, Default)]
-pub struct WakeSignal {
-    pending: Mutex<bool>,
-    cond: Condvar,
-}
-
-impl WakeSignal {
-    /// Raises the signal and wakes the waiter.
-    pub fn raise(&self) {
-        *self.pending.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = true;
-        self.cond.notify_one();
-    }
-
-    /// Waits up to `timeout` for the signal; true (and lowered) when it was raised.
-    pub fn wait(&self, timeout: Duration) -> bool {
-        let guard = self.pending.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let (mut guard, _) =
-            self.cond.wait_timeout_while(guard, timeout, |p| !*p).unwrap_or_else(std::sync::PoisonError::into_inner);
-        std::mem::replace(&mut *guard, false)
-    }
-
-    /// Installs a waker raising this signal.
-    pub fn install<E, M>(self: &Arc<Self>, core: &mut AgentCore<E, M>)
-    where
-        E: Copy + Eq + std::hash::Hash + std::fmt::Debug,
-        M: Middleware,
-    {
-        let me = self.clone();
-        core.middleware_mut().set_waker(Arc::new(move || me.raise()));
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::middleware::ced::Ced;
     use crate::middleware::describe::FallbackProfiles;
-    use crate::middleware::{Creation, EntityRef, MiddlewareError, SampleVisitor, WriteOutcome};
+    use crate::middleware::{Creation, EntityRef, MiddlewareError, SampleVisitor, Waker, WriteOutcome};
+    use std::time::Instant;
     use xrce_proto::{RequestId, SampleIdentity};
 
     /// CED that hands its waker to the test.
@@ -237,6 +151,64 @@ mod tests {
         assert!(started.elapsed() < MAX_BLOCK, "woken by the wake-up datagram");
         waker();
         assert!(wait_for_polls(&core, 2));
+        stop.store(true, Ordering::Relaxed);
+        t.join().unwrap().unwrap();
+    }
+
+    /// Fires `waker` `times` times; each must make the running server poll the middleware within `within`
+    /// (far below the loop's longest block: a timeout turn would have come up to MAX_BLOCK later).
+    fn assert_wakes<E: Copy + Eq + std::hash::Hash + std::fmt::Debug>(
+        core: &SharedCore<E>,
+        waker: &Waker,
+        times: u64,
+        within: Duration,
+    ) {
+        std::thread::sleep(Duration::from_millis(50));
+        let before = lock(core).stats().middleware_polls;
+        for n in 1..=times {
+            let started = Instant::now();
+            waker();
+            assert!(wait_for_polls(core, before + n), "no poll after wake-up {n}");
+            assert!(started.elapsed() < within, "wake-up {n} waited for a timeout");
+        }
+    }
+
+    /// The wake-up reaches the UDP loop without any datagram: the server's socket is connected to a peer that
+    /// never sends, so the kernel drops whatever else is sent to its port, and nothing reaches the core.
+    #[test]
+    fn a_wake_reaches_the_udp_loop_without_a_datagram() {
+        let (core, waker) = spy_core();
+        let socket = udp::bind_socket("127.0.0.1:0".parse().unwrap()).unwrap();
+        let silent = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        socket.connect(silent.local_addr().unwrap()).unwrap();
+        let server = udp::UdpServer::from_socket(socket, core.clone()).unwrap();
+        let waker = waker.lock().unwrap().clone().expect("the shell installs a waker");
+        let stop = Arc::new(AtomicBool::new(false));
+        let s2 = stop.clone();
+        let t = std::thread::spawn(move || server.run(&s2));
+        assert_wakes(&core, &waker, 3, MAX_BLOCK / 4);
+        assert_eq!(lock(&core).stats().datagrams_in, 0);
+        stop.store(true, Ordering::Relaxed);
+        t.join().unwrap().unwrap();
+    }
+
+    #[test]
+    fn serial_shell_polls_the_middleware_when_its_waker_fires() {
+        let (core, slot) = spy_core();
+        let server = serial::SerialServer::new(vec![serial::Line::pseudoterminal(115_200).unwrap()], core.clone());
+        let stop = Arc::new(AtomicBool::new(false));
+        let s2 = stop.clone();
+        let t = std::thread::spawn(move || server.run(&s2));
+        // The serial server installs its waker when it starts running.
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let waker = loop {
+            if let Some(w) = slot.lock().unwrap().clone() {
+                break w;
+            }
+            assert!(Instant::now() < deadline, "the shell installs a waker");
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        assert_wakes(&core, &waker, 3, MAX_BLOCK / 4);
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap().unwrap();
     }

@@ -1,31 +1,39 @@
 //! Serial shells (`serial`, `multiserial`, `pseudoterminal`): XRCE messages in HDLC-like frames (spec §12.3,
 //! [`xrce_proto::framing::serial`]). The agent's local address is 0; it accepts frames sent to 0 and
-//! answers each client at the source address of its frames. One reader thread per line, plus a thread for
-//! the core's timers and middleware wake-ups. Lines are non-blocking: a line nobody reads (a pty whose client
-//! left) drops frames after [`WRITE_TIMEOUT`] instead of stalling the agent; reliable streams recover.
+//! answers each client at the source address of its frames. One thread, one `mio` loop
+//! ([`EventLoop`]) over every line and the middleware's waker. Lines are
+//! non-blocking and each has its own outbox: a line nobody reads (a pty whose client left) drops what it
+//! holds once it has not moved for [`WRITE_TIMEOUT`], and takes no new frame past [`MAX_BACKLOG`] bytes;
+//! nothing else waits for it, and reliable streams recover.
+//!
+//! Line settings (raw 8N1, no flow control, the baud rate) are made by the `serialport` crate, which sets
+//! any rate the driver takes (termios2 on Linux), not only the standard ones.
 
 use std::fs::File;
 use std::io::{self, Read, Write};
-use std::os::fd::AsFd;
+use std::os::fd::{AsFd, AsRawFd};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
-use std::thread;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
-use nix::sys::termios::{self, BaudRate, SetArg};
+use mio::event::Event as Readiness;
+use mio::unix::SourceFd;
+use mio::{Interest, Registry, Token};
 use xrce_proto::framing::serial::{encode_frame, max_encoded_len, AddressFilter, Event, FrameDecoder};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, run_due, SharedCore, WakeSignal, MAX_BLOCK};
+use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::{SharedCore, MAX_BLOCK};
 use crate::core::Transmit;
 
 /// The agent's address on serial lines (eProsima's).
 pub const AGENT_ADDRESS: u8 = 0;
 /// Largest message on a serial line (eProsima's agent buffer).
 pub const MAX_MESSAGE: usize = 65_535;
-/// How long a frame may wait for room on a line before it is dropped.
+/// How long a line's outbox may wait for room before what it holds is dropped.
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(1);
+/// Most bytes waiting for a line (5.7 s at 115200 baud); frames past it are dropped.
+pub const MAX_BACKLOG: usize = 64 * 1024;
 
 /// A client on a serial line: the line's index and the client's address (its frames' source).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -49,39 +57,22 @@ fn to_io(e: nix::Error) -> io::Error {
     io::Error::from(e)
 }
 
-/// The termios speed for `baud`, if it is a standard rate.
-pub fn baud_rate(baud: u32) -> Option<BaudRate> {
-    Some(match baud {
-        1200 => BaudRate::B1200,
-        2400 => BaudRate::B2400,
-        4800 => BaudRate::B4800,
-        9600 => BaudRate::B9600,
-        19_200 => BaudRate::B19200,
-        38_400 => BaudRate::B38400,
-        57_600 => BaudRate::B57600,
-        115_200 => BaudRate::B115200,
-        230_400 => BaudRate::B230400,
-        460_800 => BaudRate::B460800,
-        500_000 => BaudRate::B500000,
-        576_000 => BaudRate::B576000,
-        921_600 => BaudRate::B921600,
-        1_000_000 => BaudRate::B1000000,
-        1_500_000 => BaudRate::B1500000,
-        2_000_000 => BaudRate::B2000000,
-        3_000_000 => BaudRate::B3000000,
-        4_000_000 => BaudRate::B4000000,
-        _ => return None,
-    })
-}
-
-/// Raw mode (no echo, no line discipline, 8N1) at `baud`.
+/// Raw mode (no echo, no line discipline, 8N1, no flow control) at `baud` for the terminal open as `fd`:
+/// any rate its driver takes, not only the standard ones.
 fn make_raw(fd: impl AsFd, baud: u32) -> io::Result<()> {
-    let mut t = termios::tcgetattr(&fd).map_err(to_io)?;
-    termios::cfmakeraw(&mut t);
-    let speed = baud_rate(baud)
-        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, format!("unsupported baud rate {baud}")))?;
-    termios::cfsetspeed(&mut t, speed).map_err(to_io)?;
-    termios::tcsetattr(&fd, SetArg::TCSANOW, &t).map_err(to_io)
+    let path = nix::unistd::ttyname(fd).map_err(to_io)?;
+    let path = path.to_str().ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "device path is not UTF-8"))?;
+    // Shared, not exclusive: a client must still be able to open a pseudoterminal's slave side. The port is
+    // closed at once; its settings stay with the terminal, which the caller keeps open.
+    let port = serialport::new(path, baud)
+        .data_bits(serialport::DataBits::Eight)
+        .parity(serialport::Parity::None)
+        .stop_bits(serialport::StopBits::One)
+        .flow_control(serialport::FlowControl::None)
+        .exclusive(false)
+        .open_native()?;
+    drop(port);
+    Ok(())
 }
 
 fn set_nonblocking(file: &File) -> io::Result<()> {
@@ -126,79 +117,17 @@ impl Line {
     }
 }
 
-type Writers = Arc<Vec<Mutex<File>>>;
-
 /// A serial server around a shared core: one or more lines.
 #[derive(Debug)]
 pub struct SerialServer {
     lines: Vec<Line>,
     core: SharedCore<SerialEndpoint>,
-    wake: Arc<WakeSignal>,
-}
-
-/// Writes a whole frame to a non-blocking line, waiting for room at most [`WRITE_TIMEOUT`].
-fn write_frame(file: &mut File, mut bytes: &[u8]) -> io::Result<()> {
-    let deadline = Instant::now() + WRITE_TIMEOUT;
-    while !bytes.is_empty() {
-        match file.write(bytes) {
-            Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
-            Ok(n) => bytes = bytes.get(n..).unwrap_or(&[]),
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                let left = deadline.saturating_duration_since(Instant::now());
-                if left.is_zero() {
-                    return Err(io::ErrorKind::TimedOut.into());
-                }
-                let timeout = PollTimeout::try_from(left.min(Duration::from_millis(100))).unwrap_or(PollTimeout::ZERO);
-                let mut fds = [PollFd::new(file.as_fd(), PollFlags::POLLOUT)];
-                let _ = poll(&mut fds, timeout);
-            }
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(())
-}
-
-/// Frames and sends what the core produced.
-fn dispatch(core: &SharedCore<SerialEndpoint>, writers: &Writers, names: &[String]) {
-    let transmits: Vec<Transmit<SerialEndpoint>> = {
-        let mut c = lock(core);
-        std::iter::from_fn(|| c.poll_transmit()).collect()
-    };
-    let mut frame = Vec::new();
-    for t in &transmits {
-        let Some(writer) = writers.get(usize::from(t.to.line)) else { continue };
-        let name = names.get(usize::from(t.to.line)).map_or("?", String::as_str);
-        frame.resize(max_encoded_len(t.data.len()), 0);
-        let n = match encode_frame(AGENT_ADDRESS, t.to.address, &t.data, &mut frame) {
-            Ok(n) => n,
-            Err(e) => {
-                tracing::warn!(line = name, len = t.data.len(), "cannot frame message: {e}");
-                continue;
-            }
-        };
-        hexdump("send", &t.to, &t.data);
-        let mut file = writer.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Err(e) = write_frame(&mut file, frame.get(..n).unwrap_or(&[])) {
-            tracing::debug!(line = name, "serial write failed, frame dropped: {e}");
-        }
-    }
-    let mut c = lock(core);
-    for t in transmits {
-        c.recycle(t.data);
-    }
 }
 
 impl SerialServer {
-    /// A server on `lines`; installs the middleware waker.
+    /// A server on `lines`.
     pub fn new(lines: Vec<Line>, core: SharedCore<SerialEndpoint>) -> Self {
-        let wake = Arc::new(WakeSignal::default());
-        {
-            let mut c = lock(&core);
-            anchor_wall_clock(&mut c);
-            wake.install(&mut c);
-        }
-        Self { lines, core, wake }
+        Self { lines, core }
     }
 
     /// The device paths of the lines.
@@ -206,96 +135,184 @@ impl SerialServer {
         self.lines.iter().map(|l| l.name.clone()).collect()
     }
 
-    /// Serves until `stop` is set.
+    /// Serves until `stop` is set (checked at least every [`MAX_BLOCK`]).
     pub fn run(self, stop: &Arc<AtomicBool>) -> io::Result<()> {
-        let names = self.names();
-        let mut readers = Vec::new();
-        let mut writers = Vec::new();
-        for line in &self.lines {
-            writers.push(Mutex::new(line.file.try_clone()?));
+        if u16::try_from(self.lines.len()).is_err() {
+            return Err(io::Error::other(format!("too many serial lines: {}", self.lines.len())));
         }
-        let writers: Writers = Arc::new(writers);
-        for (index, line) in self.lines.into_iter().enumerate() {
-            let index = u16::try_from(index).map_err(|_| io::Error::other("too many serial lines"))?;
-            let (core, writers, names, stop) = (self.core.clone(), writers.clone(), names.clone(), stop.clone());
-            readers.push(
-                thread::Builder::new()
-                    .name(format!("xrce-serial-{index}"))
-                    .spawn(move || read_loop(line, index, &core, &writers, &names, &stop))?,
-            );
-        }
-        timer_loop(&self.core, &writers, &names, stop, &self.wake);
-        for r in readers {
-            let _ = r.join();
-        }
+        let name = format!("the serial server on {}", self.names().join(" "));
+        let now = Instant::now();
+        EventLoop::new(self.core)?.run(&name, stop, |registry| {
+            let mut lines = Vec::with_capacity(self.lines.len());
+            for (index, line) in self.lines.into_iter().enumerate() {
+                registry.register(&mut SourceFd(&line.file.as_raw_fd()), token(index), Interest::READABLE)?;
+                lines.push(LineIo {
+                    line,
+                    decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
+                    // Bytes may have arrived before the registration.
+                    readable: true,
+                    retry_at: None,
+                    outbox: Vec::new(),
+                    progress_at: now,
+                    writable_interest: false,
+                });
+            }
+            Ok(SerialIo { lines, registry: registry.try_clone()?, buf: vec![0u8; 4096] })
+        })?;
         Ok(())
     }
 }
 
-fn read_loop(
-    mut line: Line,
-    index: u16,
-    core: &SharedCore<SerialEndpoint>,
-    writers: &Writers,
-    names: &[String],
-    stop: &AtomicBool,
-) {
-    let mut decoder = FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS));
-    let mut buf = vec![0u8; 4096];
-    let timeout = PollTimeout::try_from(MAX_BLOCK).unwrap_or(PollTimeout::ZERO);
-    while !stop.load(Ordering::Relaxed) {
-        let mut fds = [PollFd::new(line.file.as_fd(), PollFlags::POLLIN)];
-        match poll(&mut fds, timeout) {
-            Ok(0) | Err(nix::Error::EINTR) => continue,
-            Ok(_) => {}
-            Err(e) => {
-                tracing::warn!(line = %line.name, "poll failed: {e}");
-                break;
+/// Line tokens are `1 + index`.
+fn token(index: usize) -> Token {
+    Token(index.saturating_add(1))
+}
+
+/// The lines, as the event loop sees them.
+struct SerialIo {
+    lines: Vec<LineIo>,
+    registry: Registry,
+    buf: Vec<u8>,
+}
+
+/// One line's reading and writing state.
+struct LineIo {
+    line: Line,
+    decoder: FrameDecoder<Vec<u8>>,
+    /// Readiness was reported since the last read.
+    readable: bool,
+    /// The last read failed (no carrier, device gone): read again from then on, rather than spin.
+    retry_at: Option<Instant>,
+    /// Encoded frames waiting for room on the line, front first.
+    outbox: Vec<u8>,
+    /// When the outbox last moved (or got its first bytes after being empty).
+    progress_at: Instant,
+    writable_interest: bool,
+}
+
+impl Io<SerialEndpoint> for SerialIo {
+    fn ready(&mut self, event: &Readiness) {
+        if let Some(l) = event.token().0.checked_sub(1).and_then(|i| self.lines.get_mut(i)) {
+            l.readable |= event.is_readable() || event.is_read_closed() || event.is_error();
+        }
+    }
+
+    fn receive(&mut self, inbox: &mut Inbox<'_, SerialEndpoint>) -> io::Result<()> {
+        let now = inbox.now();
+        for (index, l) in (0u16..).zip(self.lines.iter_mut()) {
+            let retry = l.retry_at.is_some_and(|t| t <= now);
+            if !(l.readable || retry) {
+                continue;
+            }
+            l.readable = false;
+            l.retry_at = None;
+            loop {
+                let n = match l.line.file.read(&mut self.buf) {
+                    Ok(0) => {
+                        // A serial line at EOF (no carrier).
+                        l.retry_at = Some(now + MAX_BLOCK);
+                        break;
+                    }
+                    Ok(n) => n,
+                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                    Err(e) => {
+                        // A pty master reports EIO while no slave is open: wait for a client.
+                        tracing::debug!(line = %l.line.name, "read failed: {e}");
+                        l.retry_at = Some(now + MAX_BLOCK);
+                        break;
+                    }
+                };
+                let name = &l.line.name;
+                l.decoder.push(self.buf.get(..n).unwrap_or(&[]), |event| match event {
+                    Event::Frame { src, payload, .. } => {
+                        inbox.deliver(SerialEndpoint { line: index, address: src }, payload);
+                    }
+                    Event::Error(e) => tracing::debug!(line = %name, "frame dropped: {e}"),
+                });
             }
         }
-        let n = match line.file.read(&mut buf) {
-            Ok(0) => {
-                // A serial line at EOF (no carrier): try again later rather than spin.
-                thread::sleep(MAX_BLOCK);
+        Ok(())
+    }
+
+    fn send(&mut self, out: &mut Vec<Transmit<SerialEndpoint>>, spent: &mut Spent<SerialEndpoint>) {
+        let now = Instant::now();
+        for t in out.drain(..) {
+            if let Some(l) = self.lines.get_mut(usize::from(t.to.line)) {
+                l.queue(t.to.address, &t.data, now);
+            }
+            spent.buffers.push(t.data);
+        }
+        for (index, l) in self.lines.iter_mut().enumerate() {
+            if l.outbox.is_empty() {
                 continue;
             }
-            Ok(n) => n,
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => continue,
-            Err(e) => {
-                // A pty master reports EIO while no slave is open: wait for a client.
-                tracing::debug!(line = %line.name, "read failed: {e}");
-                thread::sleep(MAX_BLOCK);
-                continue;
-            }
-        };
-        {
-            let mut c = lock(core);
-            let now = Instant::now();
-            decoder.push(buf.get(..n).unwrap_or(&[]), |event| match event {
-                Event::Frame { src, payload, .. } => {
-                    let from = SerialEndpoint { line: index, address: src };
-                    hexdump("recv", &from, payload);
-                    c.handle_datagram(from, payload, now);
+            l.flush(now);
+            let want_writable = !l.outbox.is_empty();
+            if want_writable != l.writable_interest {
+                let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
+                let fd = l.line.file.as_raw_fd();
+                if self.registry.reregister(&mut SourceFd(&fd), token(index), interest).is_ok() {
+                    l.writable_interest = want_writable;
                 }
-                Event::Error(e) => tracing::debug!(line = %line.name, "frame dropped: {e}"),
-            });
+            }
         }
-        dispatch(core, writers, names);
     }
 }
 
-fn timer_loop(
-    core: &SharedCore<SerialEndpoint>,
-    writers: &Writers,
-    names: &[String],
-    stop: &AtomicBool,
-    wake: &WakeSignal,
-) {
-    while !stop.load(Ordering::Relaxed) {
-        let next = lock(core).poll_timeout();
-        let woken = wake.wait(block_for(next, Instant::now()));
-        run_due(&mut lock(core), woken, Instant::now());
-        dispatch(core, writers, names);
+impl LineIo {
+    /// Frames `data` for the client at `address` into the outbox.
+    fn queue(&mut self, address: u8, data: &[u8], now: Instant) {
+        let start = self.outbox.len();
+        // A frame larger than the whole backlog still goes out alone.
+        if start > 0 && start + max_encoded_len(data.len()) > MAX_BACKLOG {
+            tracing::debug!(line = %self.line.name, "line backlog full, frame dropped");
+            return;
+        }
+        self.outbox.resize(start + max_encoded_len(data.len()), 0);
+        match encode_frame(AGENT_ADDRESS, address, data, self.outbox.get_mut(start..).unwrap_or(&mut [])) {
+            Ok(n) => self.outbox.truncate(start + n),
+            Err(e) => {
+                self.outbox.truncate(start);
+                tracing::warn!(line = %self.line.name, len = data.len(), "cannot frame message: {e}");
+                return;
+            }
+        }
+        if start == 0 {
+            self.progress_at = now;
+        }
+    }
+
+    /// Writes as much of the outbox as the line takes now; drops it when the line failed or has taken
+    /// nothing for [`WRITE_TIMEOUT`] (a frame cut short is discarded by the peer's decoder at the next
+    /// flag).
+    fn flush(&mut self, now: Instant) {
+        let mut written = 0;
+        let failed = loop {
+            match self.line.file.write(self.outbox.get(written..).unwrap_or(&[])) {
+                Ok(0) => break None,
+                Ok(n) => {
+                    written += n;
+                    if written >= self.outbox.len() {
+                        break None;
+                    }
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break None,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => break Some(e),
+            }
+        };
+        if written > 0 {
+            self.outbox.drain(..written.min(self.outbox.len()));
+            self.progress_at = now;
+        }
+        if let Some(e) = failed {
+            tracing::debug!(line = %self.line.name, bytes = self.outbox.len(), "serial write failed, frames dropped: {e}");
+            self.outbox.clear();
+        } else if !self.outbox.is_empty() && now.saturating_duration_since(self.progress_at) >= WRITE_TIMEOUT {
+            tracing::debug!(line = %self.line.name, bytes = self.outbox.len(), "line not read for {WRITE_TIMEOUT:?}, frames dropped");
+            self.outbox.clear();
+        }
     }
 }
 
@@ -306,6 +323,10 @@ mod tests {
     use crate::middleware::ced::Ced;
     use crate::middleware::describe::FallbackProfiles;
     use crate::transport::DynMiddleware;
+    use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+    use std::sync::atomic::Ordering;
+    use std::sync::Mutex;
+    use std::thread;
 
     /// A client on the pseudoterminal's slave side pings the agent (GET_INFO out of session) in a frame from
     /// address 1 and gets the INFO back in a frame from 0 to 1.
@@ -354,5 +375,25 @@ mod tests {
         assert_eq!(src, AGENT_ADDRESS);
         let (_, mut subs) = xrce_proto::message::parse(&reply).unwrap();
         assert!(matches!(subs.next().unwrap().unwrap().decode(), Ok(xrce_proto::Submessage::Info(_))));
+    }
+
+    /// Rates outside termios' list (250000, common on 3D printers; any other) used to be refused when the
+    /// line was opened: they are set through termios2 (`BOTHER`), on a pseudoterminal and on a device path.
+    #[test]
+    fn non_standard_baud_rates_are_set() {
+        let is_custom = |fd: &std::os::fd::OwnedFd| {
+            let t = nix::sys::termios::tcgetattr(fd).unwrap();
+            t.control_flags.bits() & nix::libc::CBAUD == nix::libc::BOTHER
+        };
+        for baud in [250_000, 1_000_000, 123_457] {
+            let line = Line::pseudoterminal(baud).unwrap();
+            assert!(is_custom(line._slave.as_ref().unwrap()), "{baud}");
+            let device = Line::open(&line.path(), baud).unwrap();
+            assert_eq!(device.name(), line.name());
+        }
+        let mut agent =
+            crate::agent::AgentInstance::create(["xrce-agent", "pseudoterminal", "-b", "250000", "-m", "ced"])
+                .expect("a pseudoterminal at 250000 baud");
+        agent.stop().unwrap();
     }
 }

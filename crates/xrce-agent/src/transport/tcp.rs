@@ -1,7 +1,8 @@
 //! TCP shell (IPv4 and IPv6): messages framed by a 2-byte little-endian length (spec §12.2), many
-//! connections, one thread. A `mio` event loop accepts, reads every connection without blocking (partial
-//! reads reassembled by [`TcpDecoder`](xrce_proto::framing::tcp::TcpDecoder)), runs the core's timers, is
-//! woken by the middleware through a [`mio::Waker`], and writes each connection from its own outbox with
+//! connections, one thread. A `mio` event loop ([`EventLoop`]) accepts, reads every
+//! connection without blocking (partial reads reassembled by
+//! [`TcpDecoder`]), runs the core's timers, is woken by the
+//! middleware through a [`mio::Waker`], and writes each connection from its own outbox with
 //! vectored writes as far as the socket takes them: a client that stops reading only fills its own outbox,
 //! and is closed once that holds [`MAX_OUTBOX_BYTES`] or has not moved for [`WRITE_TIMEOUT`]. Nothing else
 //! waits for it.
@@ -9,15 +10,18 @@
 use std::collections::{HashMap, VecDeque};
 use std::io::{self, IoSlice, Read, Write};
 use std::net::{Shutdown, SocketAddr};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use mio::event::Event;
 use mio::net::{TcpListener, TcpStream};
-use mio::{Events, Interest, Poll, Token};
+use mio::{Interest, Registry, Token};
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
 
-use super::{anchor_wall_clock, block_for, hexdump, lock, run_due, SharedCore};
+use super::discovery::DiscoveryServer;
+use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::SharedCore;
 use crate::core::Transmit;
 
 /// Most simultaneous connections; more are closed on accept.
@@ -31,8 +35,7 @@ pub const MAX_OUTBOX_BYTES: usize = 4 * 1024 * 1024;
 /// Messages written in one vectored write (two slices each: length prefix and message).
 const WRITE_BATCH: usize = 32;
 
-const LISTENER: Token = Token(0);
-const WAKER: Token = Token(1);
+const LISTENER: Token = Token(1);
 /// Connection tokens are `FIRST_CONN + ConnId`.
 const FIRST_CONN: usize = 2;
 
@@ -70,9 +73,7 @@ fn number_of(token: Token) -> Option<u64> {
 #[derive(Debug)]
 pub struct TcpServer {
     listener: std::net::TcpListener,
-    core: SharedCore<ConnId>,
-    /// Created at bind so the middleware's waker exists before the loop runs; the loop takes it.
-    poll: Mutex<Option<Poll>>,
+    looped: EventLoop<ConnId>,
 }
 
 /// One connection: its socket, the reassembly of what it sends and the framed messages waiting to go out.
@@ -155,17 +156,14 @@ impl TcpServer {
     pub fn bind(addr: SocketAddr, core: SharedCore<ConnId>) -> io::Result<Self> {
         let listener = std::net::TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
-        let poll = Poll::new()?;
-        let waker = Arc::new(mio::Waker::new(poll.registry(), WAKER)?);
-        {
-            let mut c = lock(&core);
-            anchor_wall_clock(&mut c);
-            c.middleware_mut().set_waker(Arc::new(move || {
-                // A failed wake-up only delays the poll to the loop's next turn (at most MAX_BLOCK).
-                let _ = waker.wake();
-            }));
-        }
-        Ok(Self { listener, core, poll: Mutex::new(Some(poll)) })
+        Ok(Self { listener, looped: EventLoop::new(core)? })
+    }
+
+    /// Answers discovery requests (`-d`) from this server's loop.
+    #[must_use]
+    pub fn with_discovery(mut self, discovery: DiscoveryServer) -> Self {
+        self.looped.set_discovery(discovery);
+        self
     }
 
     /// The bound address.
@@ -175,60 +173,108 @@ impl TcpServer {
 
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
-        let mut poll = self
-            .poll
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .take()
-            .ok_or_else(|| io::Error::other("this TCP server is already running"))?;
-        let mut listener = TcpListener::from_std(self.listener.try_clone()?);
-        poll.registry().register(&mut listener, LISTENER, Interest::READABLE)?;
-        let mut looped = Loop { conns: HashMap::new(), next_id: 1, buf: vec![0u8; 64 * 1024], recycle: Vec::new() };
-        let mut events = Events::with_capacity(256);
-        while !stop.load(Ordering::Relaxed) {
-            let timeout = block_for(lock(&self.core).poll_timeout(), Instant::now());
-            if let Err(e) = poll.poll(&mut events, Some(timeout)) {
-                if e.kind() != io::ErrorKind::Interrupted {
-                    return Err(e);
-                }
-            }
-            let mut woken = false;
-            for event in &events {
-                match event.token() {
-                    LISTENER => looped.accept(&listener, &poll),
-                    WAKER => woken = true,
-                    token => {
-                        let Some(number) = number_of(token) else { continue };
-                        if event.is_readable() || event.is_read_closed() || event.is_error() {
-                            looped.read(number, &self.core, &poll);
-                        }
-                    }
-                }
-            }
-            run_due(&mut lock(&self.core), woken, Instant::now());
-            looped.send(&self.core, &poll);
-        }
-        for (_, conn) in looped.conns.drain() {
+        let name = format!("the TCP server on {}", self.listener.local_addr()?);
+        let mut io = self.looped.run(&name, stop, |registry| {
+            let mut listener = TcpListener::from_std(self.listener.try_clone()?);
+            registry.register(&mut listener, LISTENER, Interest::READABLE)?;
+            Ok(TcpIo {
+                listener,
+                registry: registry.try_clone()?,
+                conns: HashMap::new(),
+                next_id: 1,
+                buf: vec![0u8; 64 * 1024],
+                readable: Vec::new(),
+            })
+        })?;
+        for (_, conn) in io.conns.drain() {
             let _ = conn.stream.shutdown(Shutdown::Both);
         }
         Ok(())
     }
 }
 
-/// The event loop's state.
-struct Loop {
+/// The listener and the connections, as the event loop sees them.
+struct TcpIo {
+    listener: TcpListener,
+    registry: Registry,
     /// By connection number.
     conns: HashMap<u64, Conn>,
     next_id: u64,
     buf: Vec<u8>,
-    /// Message buffers written out, handed back to the core for reuse.
-    recycle: Vec<Vec<u8>>,
+    /// Connections reported readable (or closed) since the last turn.
+    readable: Vec<u64>,
 }
 
-impl Loop {
-    fn accept(&mut self, listener: &TcpListener, poll: &Poll) {
+impl Io<ConnId> for TcpIo {
+    fn ready(&mut self, event: &Event) {
+        match event.token() {
+            LISTENER => self.accept(),
+            token => {
+                if let Some(number) = number_of(token) {
+                    if event.is_readable() || event.is_read_closed() || event.is_error() {
+                        self.readable.push(number);
+                    }
+                }
+            }
+        }
+    }
+
+    fn receive(&mut self, inbox: &mut Inbox<'_, ConnId>) -> io::Result<()> {
+        for number in std::mem::take(&mut self.readable) {
+            self.read(number, inbox);
+        }
+        Ok(())
+    }
+
+    /// Moves what the core produced into the outboxes and writes them; closes connections whose peer
+    /// stopped reading or failed.
+    fn send(&mut self, out: &mut Vec<Transmit<ConnId>>, spent: &mut Spent<ConnId>) {
+        let now = Instant::now();
+        let mut overflowing = Vec::new();
+        for Transmit { to, data } in out.drain(..) {
+            match self.conns.get_mut(&to.number) {
+                Some(conn) => {
+                    if !conn.queue(data, now) && !overflowing.contains(&to.number) {
+                        overflowing.push(to.number);
+                    }
+                }
+                None => spent.buffers.push(data),
+            }
+        }
+        let mut failed = Vec::new();
+        for (&number, conn) in &mut self.conns {
+            if conn.outbox.is_empty() {
+                continue;
+            }
+            if let Err(e) = conn.flush(now, &mut spent.buffers) {
+                failed.push((number, format!("write failed: {e}")));
+                continue;
+            }
+            let want_writable = !conn.outbox.is_empty();
+            if want_writable != conn.writable_interest {
+                let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
+                if self.registry.reregister(&mut conn.stream, token(number), interest).is_ok() {
+                    conn.writable_interest = want_writable;
+                }
+            }
+        }
+        for (&number, conn) in &self.conns {
+            if overflowing.contains(&number) && conn.queued > MAX_OUTBOX_BYTES {
+                failed.push((number, format!("peer not reading: {} bytes waiting", conn.queued)));
+            } else if conn.stalled(now) {
+                failed.push((number, format!("peer took nothing for {WRITE_TIMEOUT:?}")));
+            }
+        }
+        for (number, why) in failed {
+            spent.gone.extend(self.close(number, &why));
+        }
+    }
+}
+
+impl TcpIo {
+    fn accept(&mut self) {
         loop {
-            let (mut stream, peer) = match listener.accept() {
+            let (mut stream, peer) = match self.listener.accept() {
                 Ok(a) => a,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
@@ -244,7 +290,7 @@ impl Loop {
             let id = ConnId { number: self.next_id, peer };
             self.next_id += 1;
             let _ = stream.set_nodelay(true);
-            if let Err(e) = poll.registry().register(&mut stream, token(id.number), Interest::READABLE) {
+            if let Err(e) = self.registry.register(&mut stream, token(id.number), Interest::READABLE) {
                 tracing::warn!(%peer, "cannot serve TCP connection: {e}");
                 continue;
             }
@@ -263,8 +309,8 @@ impl Loop {
         }
     }
 
-    /// Reads what `id` has sent and hands every complete message to the core.
-    fn read(&mut self, number: u64, core: &SharedCore<ConnId>, poll: &Poll) {
+    /// Reads what connection `number` has sent and hands every complete message to the core.
+    fn read(&mut self, number: u64, inbox: &mut Inbox<'_, ConnId>) {
         let Some(conn) = self.conns.get_mut(&number) else { return };
         let id = conn.id;
         let mut closed = false;
@@ -278,89 +324,37 @@ impl Loop {
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => {
-                    tracing::debug!(conn = %conn.id, "TCP read failed: {e}");
+                    tracing::debug!(conn = %id, "TCP read failed: {e}");
                     closed = true;
                     break;
                 }
             };
-            let peer = conn.id;
-            let mut c = lock(core);
             conn.decoder.push(self.buf.get(..n).unwrap_or(&[]), |event| match event {
-                TcpEvent::Message(msg) => {
-                    hexdump("recv", &peer, msg);
-                    c.handle_datagram(id, msg, Instant::now());
-                }
-                TcpEvent::Error(e) => tracing::warn!(%peer, "{e}"),
+                TcpEvent::Message(msg) => inbox.deliver(id, msg),
+                TcpEvent::Error(e) => tracing::warn!(peer = %id, "{e}"),
             });
         }
         if closed {
-            self.close(number, core, poll, "closed by the peer");
+            if let Some(id) = self.close(number, "closed by the peer") {
+                inbox.forget(id);
+            }
         }
     }
 
-    /// Moves what the core produced into the outboxes and writes them; closes connections whose peer
-    /// stopped reading or failed.
-    fn send(&mut self, core: &SharedCore<ConnId>, poll: &Poll) {
-        let now = Instant::now();
-        let mut overflowing = Vec::new();
-        {
-            let mut c = lock(core);
-            for data in self.recycle.drain(..) {
-                c.recycle(data);
-            }
-            while let Some(Transmit { to, data }) = c.poll_transmit() {
-                match self.conns.get_mut(&to.number) {
-                    Some(conn) => {
-                        hexdump("send", &conn.id, &data);
-                        if !conn.queue(data, now) && !overflowing.contains(&to.number) {
-                            overflowing.push(to.number);
-                        }
-                    }
-                    None => c.recycle(data),
-                }
-            }
-        }
-        let mut failed = Vec::new();
-        for (&number, conn) in &mut self.conns {
-            if conn.outbox.is_empty() {
-                continue;
-            }
-            if let Err(e) = conn.flush(now, &mut self.recycle) {
-                failed.push((number, format!("write failed: {e}")));
-                continue;
-            }
-            let want_writable = !conn.outbox.is_empty();
-            if want_writable != conn.writable_interest {
-                let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
-                if poll.registry().reregister(&mut conn.stream, token(number), interest).is_ok() {
-                    conn.writable_interest = want_writable;
-                }
-            }
-        }
-        for (&number, conn) in &self.conns {
-            if overflowing.contains(&number) && conn.queued > MAX_OUTBOX_BYTES {
-                failed.push((number, format!("peer not reading: {} bytes waiting", conn.queued)));
-            } else if conn.stalled(now) {
-                failed.push((number, format!("peer took nothing for {WRITE_TIMEOUT:?}")));
-            }
-        }
-        for (number, why) in failed {
-            self.close(number, core, poll, &why);
-        }
-    }
-
-    fn close(&mut self, number: u64, core: &SharedCore<ConnId>, poll: &Poll, why: &str) {
-        let Some(mut conn) = self.conns.remove(&number) else { return };
-        let _ = poll.registry().deregister(&mut conn.stream);
+    /// Closes connection `number`; returns its id for the core to forget.
+    fn close(&mut self, number: u64, why: &str) -> Option<ConnId> {
+        let mut conn = self.conns.remove(&number)?;
+        let _ = self.registry.deregister(&mut conn.stream);
         let _ = conn.stream.shutdown(Shutdown::Both);
         tracing::info!(conn = %conn.id, "TCP connection closed: {why}");
-        lock(core).forget_endpoint(conn.id);
+        Some(conn.id)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::transport::drive::WAKER;
 
     #[test]
     fn connections_are_logged_by_address_and_number() {

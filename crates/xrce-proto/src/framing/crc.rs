@@ -1,70 +1,57 @@
 //! CRC-16/ARC, the checksum eProsima's stream framing puts after every serial frame's payload.
 //!
 //! Parameters: reflected polynomial 0xA001 (0x8005 normal form), initial value 0, no final xor; the check
-//! value over `b"123456789"` is `0xBB3D`. A 256-entry table is built at compile time, so updating costs
-//! one lookup per byte and nothing at run time to set up.
+//! value over `b"123456789"` is `0xBB3D`. The arithmetic is the `crc` crate's (its 256-entry table is built
+//! at compile time, so updating costs one lookup per byte and nothing at run time to set up).
 
-/// Lookup table for the reflected polynomial 0xA001, computed by the compiler.
-const TABLE: [u16; 256] = build_table();
+use crc::{Crc, Digest, CRC_16_ARC};
 
-/// Builds the byte-at-a-time table; runs only at compile time.
-#[allow(
-    clippy::indexing_slicing,
-    reason = "const evaluation: `i < 256` bounds every index and an overrun would fail the build, not panic"
-)]
-const fn build_table() -> [u16; 256] {
-    let mut table = [0u16; 256];
-    let mut i = 0;
-    while i < 256 {
-        // `i < 256`, so the cast is lossless.
-        let mut crc = i as u16;
-        let mut bit = 0;
-        while bit < 8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xA001 } else { crc >> 1 };
-            bit += 1;
-        }
-        table[i] = crc;
-        i += 1;
-    }
-    table
-}
+/// The algorithm with its table; a `static` so digests can borrow it for `'static`.
+static ARC: Crc<u16> = Crc::<u16>::new(&CRC_16_ARC);
 
 /// Incremental CRC-16/ARC: feed the bytes in as many pieces as they arrive, then [`finish`](Self::finish).
 ///
 /// The serial decoder uses this to checksum a payload while it unescapes it, without a second pass.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Clone)]
 pub struct Crc16 {
-    state: u16,
+    digest: Digest<'static, u16>,
+}
+
+impl core::fmt::Debug for Crc16 {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Crc16").field("value", &self.finish()).finish()
+    }
+}
+
+impl Default for Crc16 {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl Crc16 {
     /// A fresh checksum (initial value 0).
     #[must_use]
     pub const fn new() -> Self {
-        Self { state: 0 }
+        Self { digest: ARC.digest() }
     }
 
     /// Adds one byte.
     pub fn update_byte(&mut self, byte: u8) -> &mut Self {
-        let index = usize::from((self.state as u8) ^ byte);
-        // `index` is a `u8`, so the lookup always succeeds.
-        let entry = TABLE.get(index).copied().unwrap_or(0);
-        self.state = (self.state >> 8) ^ entry;
+        self.digest.update(&[byte]);
         self
     }
 
     /// Adds a run of bytes; calling it on the pieces of a slice gives the same result as on the whole.
     pub fn update(&mut self, bytes: &[u8]) -> &mut Self {
-        for &byte in bytes {
-            self.update_byte(byte);
-        }
+        self.digest.update(bytes);
         self
     }
 
     /// The checksum of everything added so far (the value is not consumed; more bytes may follow).
     #[must_use]
-    pub const fn finish(&self) -> u16 {
-        self.state
+    pub fn finish(&self) -> u16 {
+        self.digest.clone().finalize()
     }
 }
 
@@ -78,7 +65,8 @@ pub fn crc16(bytes: &[u8]) -> u16 {
 mod tests {
     use super::*;
 
-    /// Bit-at-a-time reference implementation, to check the table.
+    /// Bit-at-a-time reference implementation, to check the crate's table against the hand-written
+    /// arithmetic the framing used before.
     fn bitwise(bytes: &[u8]) -> u16 {
         let mut crc = 0u16;
         for &b in bytes {
