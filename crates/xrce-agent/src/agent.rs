@@ -48,6 +48,14 @@ pub enum AgentError {
     /// The transport is not implemented yet.
     #[error("transport `{0}` is not implemented yet; available: udp4, udp6, tcp4, tcp6, serial, multiserial, pseudoterminal")]
     Transport(&'static str),
+    /// `-P/--p2p`: eProsima's agent-to-agent bridging of CED topics, which this agent does not have. micro-ROS
+    /// builds eProsima's agent without it (`UAGENT_P2P_PROFILE=OFF`), and with DDS (the default middleware)
+    /// agents already share topics through the DDS domain.
+    #[error(
+        "-P/--p2p {0}: agent-to-agent bridging (eProsima's P2P profile) is not supported; agents on the DDS \
+         middleware (the default) share their topics through the DDS domain"
+    )]
+    P2p(u16),
     /// The refs file could not be loaded.
     #[error(transparent)]
     Profile(#[from] crate::profile::ProfileError),
@@ -311,8 +319,8 @@ impl AgentInstance {
         let graph = to_graph_mode(config.ros_graph);
         let dds = dds_options(&config);
         let stop = Arc::new(AtomicBool::new(false));
-        if config.p2p.is_some() {
-            tracing::warn!("-P/--p2p is not implemented yet; ignored");
+        if let Some(port) = config.p2p {
+            return Err(AgentError::P2p(port));
         }
         let (agent, server, local_addr) = match config.transport {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {

@@ -8,7 +8,8 @@
 //! Facts taken from eProsima's agent (v2.x/v3.x argument parser), which this module reproduces:
 //! * `-v/--verbose` defaults to level 4 (info) even when absent; a bare `-v` also means 4; 0..=6 only.
 //! * `-d/--discovery` is off unless given; a bare `-d` listens on port 7400.
-//! * `-P/--p2p` needs a port; `-p/--port` is mandatory for the IP transports.
+//! * `-P/--p2p` needs a port (we parse it, hidden, and refuse it: P2P is not supported); `-p/--port` is
+//!   mandatory for the IP transports.
 //! * `-m/--middleware` is one of `ced`, `dds`, `rtps`, default `dds`.
 //! * `-r/--refs` must name an existing file (checked while parsing, as eProsima does).
 //! * `-b/--baudrate` defaults to 115200; non-standard numeric rates (250000, ...) are accepted, as eProsima
@@ -61,7 +62,7 @@ pub struct Config {
     pub verbosity: u8,
     /// Port of the agent discovery server, if enabled (`-d`).
     pub discovery: Option<u16>,
-    /// Port for P2P agent discovery, if enabled (`-P`).
+    /// Port for eProsima's P2P agent discovery (`-P`): refused when the agent starts (not supported).
     pub p2p: Option<u16>,
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
@@ -244,7 +245,6 @@ Arguments per transport (place them after the transport):
       -r/--refs <FILE>                Fast DDS XML profiles for entities created by reference
       -v/--verbose [0-6]              log level: 0 off .. 6 trace with hex dumps [default: 4, bare -v: 4]
       -d/--discovery [PORT]           answer agent discovery requests [bare -d: 7400]
-      -P/--p2p <PORT>                 P2P discovery of other agents (CED middleware)
       --ros-graph <on|humble|off>     ROS 2 nodes for named XRCE participants (dds middleware; ours)
                                       [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
       --dds-engine <rustdds|fastdds>  DDS implementation of the dds middleware (ours)
@@ -329,8 +329,9 @@ struct CommonArgs {
     #[arg(short = 'd', long, value_name = "PORT", num_args = 0..=1, default_missing_value = "7400")]
     discovery: Option<u16>,
 
-    /// Discover other agents and bridge topics with them through this UDP port (CED middleware).
-    #[arg(short = 'P', long, value_name = "PORT")]
+    /// eProsima's agent-to-agent bridging of CED topics: not supported (see `AgentError::P2p`); still
+    /// parsed, hidden from the help, so a command line with it gets a clear error instead of an unknown option.
+    #[arg(short = 'P', long, value_name = "PORT", hide = true)]
     p2p: Option<u16>,
 
     /// ROS 2 graph (DDS middleware): XRCE participants appear as ROS 2 nodes (on: 16-byte GIDs, Iron and
@@ -886,7 +887,6 @@ mod tests {
                 "-r/--refs",
                 "-v/--verbose",
                 "-d/--discovery",
-                "-P/--p2p",
                 "-p/--port",
                 "-b/--baudrate",
                 "-D/--dev",
@@ -908,7 +908,7 @@ mod tests {
                 assert!(help.contains(word), "`{line}` help lacks `{word}`:\n{help}");
             }
         };
-        let common = ["--middleware", "--refs", "--verbose", "--discovery", "--p2p", "[default: dds]", "[default: 4]"];
+        let common = ["--middleware", "--refs", "--verbose", "--discovery", "[default: dds]", "[default: 4]"];
         for t in ["udp4", "udp6", "tcp4", "tcp6"] {
             sub(&format!("{t} --help"), &common);
             sub(&format!("{t} -h"), &["--port"]);

@@ -376,3 +376,13 @@ fn errors_name_the_port_or_device() {
     let err = fails(&["xrce-agent", "serial", "--dev", "/nonexistent/ttyXRCE", "-m", "ced"]);
     assert!(err.contains("serial device /nonexistent/ttyXRCE"), "{err}");
 }
+
+/// eProsima's `-P` (agent-to-agent bridging) is refused with a reason, not accepted and ignored.
+#[test]
+fn p2p_is_refused_with_a_reason() {
+    let err = match AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-P", "2019"]) {
+        Ok(_) => panic!("-P started"),
+        Err(e) => e.to_string(),
+    };
+    assert!(err.contains("-P/--p2p 2019") && err.contains("not supported"), "{err}");
+}
