@@ -39,8 +39,8 @@ pub struct Sender {
     resend: u16,
     /// NACKed messages retransmitted too recently, resent once their interval has passed (same bits).
     deferred: u16,
-    /// When the first of `deferred` becomes due.
-    deferred_at: Option<Instant>,
+    /// When the first of `deferred` becomes due ([`Instant::NEVER`]: none).
+    deferred_at: Instant,
     /// Floor of the retransmission interval, in microseconds.
     floor_us: u32,
     /// Round trip and tail-loss probe.
@@ -61,7 +61,7 @@ impl Sender {
             last_sent: SeqNum::INIT,
             resend: 0,
             deferred: 0,
-            deferred_at: None,
+            deferred_at: Instant::NEVER,
             floor_us: (DEFAULT_RETRANSMIT_FLOOR.0 as u32),
             probe: Probe::new(),
         }
@@ -134,7 +134,7 @@ impl Sender {
             self.resend = self.resend.checked_shr(u32::from(released)).unwrap_or(0);
             self.deferred = self.deferred.checked_shr(u32::from(released)).unwrap_or(0);
             if self.deferred == 0 {
-                self.deferred_at = None;
+                self.deferred_at = Instant::NEVER;
             }
         }
         let interval = self.retransmit_interval();
@@ -158,14 +158,14 @@ impl Sender {
     }
 
     fn defer_until(&mut self, at: Instant) {
-        self.deferred_at = Some(self.deferred_at.map_or(at, |d| d.min(at)));
+        self.deferred_at = self.deferred_at.min(at);
     }
 
     /// Moves the deferred resends whose interval has passed to the resend set; re-arms the timer for the rest.
     fn release_deferred(&mut self, log: &impl SendLog, now: Instant) {
         let interval = self.retransmit_interval();
         let first = self.last_acked.next();
-        self.deferred_at = None;
+        self.deferred_at = Instant::NEVER;
         for seq in (AckNackBits { first_unacked: first, bitmap: self.deferred }).nacked() {
             let bit = 1 << first.distance(seq);
             match log.since_sent(seq, now) {
@@ -182,7 +182,7 @@ impl Sender {
 
     /// The next message to retransmit now, if any; recorded as retransmitted at `now`.
     pub fn next_retransmission(&mut self, log: &mut impl SendLog, now: Instant) -> Option<SeqNum> {
-        if self.deferred_at.is_some_and(|at| now >= at) {
+        if now >= self.deferred_at {
             self.release_deferred(log, now);
         }
         while let Some(seq) =
@@ -224,9 +224,6 @@ impl Sender {
 
     /// The earliest time something is due without new input: the probe or a deferred retransmission.
     pub fn timeout(&self) -> Option<Instant> {
-        match (self.probe.due(), self.deferred_at) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        self.probe.due.min(self.deferred_at).armed()
     }
 }

@@ -47,22 +47,28 @@ impl Rtt {
 }
 
 /// Tail-loss probe state of one reliable output stream.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Probe {
     /// Round-trip estimate the timeout derives from.
     pub rtt: Rtt,
-    /// When the armed probe fires.
-    due: Option<Instant>,
+    /// When the armed probe fires ([`Instant::NEVER`]: unarmed).
+    pub(super) due: Instant,
     /// The last send or progress: a probe goes a timeout after it.
     last_activity: Instant,
     /// Probes sent since the stream last made progress.
     backoff: u8,
 }
 
+impl Default for Probe {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl Probe {
     /// Unarmed, no estimate.
     pub const fn new() -> Self {
-        Self { rtt: Rtt::ZERO, due: None, last_activity: Instant(0), backoff: 0 }
+        Self { rtt: Rtt::ZERO, due: Instant::NEVER, last_activity: Instant(0), backoff: 0 }
     }
 
     /// A message left (first transmission).
@@ -76,19 +82,19 @@ impl Probe {
     pub fn on_progress(&mut self, now: Instant, period: Duration) {
         self.backoff = 0;
         self.last_activity = now;
-        if self.due.is_some_and(|d| d > now + self.timeout(period)) {
-            self.due = None;
+        if self.due > now + self.timeout(period) {
+            self.due = Instant::NEVER;
         }
     }
 
     /// When the armed probe fires, if armed.
     pub const fn due(&self) -> Option<Instant> {
-        self.due
+        self.due.armed()
     }
 
     /// Forgets the armed probe (nothing left to probe for).
     pub fn disarm(&mut self) {
-        self.due = None;
+        self.due = Instant::NEVER;
         self.backoff = 0;
     }
 
@@ -101,12 +107,11 @@ impl Probe {
 
     /// Arms the probe unless armed; the instant to schedule, if it was armed now.
     pub fn arm(&mut self, now: Instant, period: Duration) -> Option<Instant> {
-        if self.due.is_some() {
+        if self.due != Instant::NEVER {
             return None;
         }
-        let due = now + self.timeout(period);
-        self.due = Some(due);
-        Some(due)
+        self.due = now + self.timeout(period);
+        self.due.armed()
     }
 
     /// A timer set for `due` came due. `None` if it is stale (re-armed since); otherwise whether to send a
@@ -119,10 +124,10 @@ impl Probe {
         now: Instant,
         period: Duration,
     ) -> Option<(bool, Option<Instant>)> {
-        if self.due != Some(due) {
+        if self.due != due || due == Instant::NEVER {
             return None;
         }
-        self.due = None;
+        self.due = Instant::NEVER;
         if !unacked {
             self.backoff = 0;
             return Some((false, None));
@@ -130,8 +135,8 @@ impl Probe {
         let quiet_until = self.last_activity + self.timeout(period);
         if quiet_until > now {
             // Sent or acknowledged since it was armed: wait a whole timeout from then.
-            self.due = Some(quiet_until);
-            return Some((false, Some(quiet_until)));
+            self.due = quiet_until;
+            return Some((false, quiet_until.armed()));
         }
         self.backoff = self.backoff.saturating_add(1).min(MAX_BACKOFF);
         Some((true, self.arm(now, period)))

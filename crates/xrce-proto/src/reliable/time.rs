@@ -12,6 +12,19 @@ pub struct Instant(pub i64);
 pub struct Duration(pub i64);
 
 impl Instant {
+    /// Later than any time: what an unarmed timer holds (a timer is a plain `Instant`, 8 bytes rather than an
+    /// `Option`'s 16, which matters in a microcontroller's session).
+    pub const NEVER: Self = Self(i64::MAX);
+
+    /// `Some(self)` unless it is [`NEVER`](Self::NEVER).
+    pub const fn armed(self) -> Option<Self> {
+        if self.0 == i64::MAX {
+            None
+        } else {
+            Some(self)
+        }
+    }
+
     /// From nanoseconds since the epoch (rounded down to the microsecond).
     pub const fn from_nanos(ns: i64) -> Self {
         Self(ns.div_euclid(1000))
