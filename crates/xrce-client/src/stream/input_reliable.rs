@@ -62,9 +62,8 @@ impl<'a> InputReliable<'a> {
 
     /// Forgets everything stored and restarts numbering.
     pub fn reset(&mut self) {
-        for i in 0..usize::from(self.history) {
-            self.set_len_at(i, 0);
-        }
+        // One memset clears every length word in less code than a loop over them.
+        self.buf.fill(0);
         self.window = InputWindow::new();
         self.ack_pending = false;
     }

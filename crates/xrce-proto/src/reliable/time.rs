@@ -25,14 +25,14 @@ impl Instant {
         }
     }
 
-    /// From nanoseconds since the epoch (rounded down to the microsecond).
+    /// From nanoseconds since the epoch (truncated to the microsecond).
     pub const fn from_nanos(ns: i64) -> Self {
-        Self(ns.div_euclid(1000))
+        Self(ns / 1000)
     }
 
-    /// Nanoseconds since the epoch.
+    /// Nanoseconds since the epoch (wrapping past ±292 years: no check on a microcontroller's hot path).
     pub const fn as_nanos(self) -> i64 {
-        self.0.saturating_mul(1000)
+        self.0.wrapping_mul(1000)
     }
 
     /// Time from `earlier` to `self`, zero if `earlier` is later.
@@ -51,14 +51,14 @@ impl Duration {
         Self(ms.saturating_mul(1000))
     }
 
-    /// From nanoseconds (rounded down to the microsecond).
+    /// From nanoseconds (truncated to the microsecond).
     pub const fn from_nanos(ns: i64) -> Self {
-        Self(ns.div_euclid(1000))
+        Self(ns / 1000)
     }
 
-    /// Nanoseconds.
+    /// Nanoseconds (wrapping past ±292 years).
     pub const fn as_nanos(self) -> i64 {
-        self.0.saturating_mul(1000)
+        self.0.wrapping_mul(1000)
     }
 
     /// `self × 2^n`, saturating.
