@@ -5,28 +5,13 @@
 
 use std::collections::{BTreeMap, VecDeque};
 use xrce_proto::reliable::{
-    AckNackBits, Duration, FragmentPlan, FragmentSink, InputWindow, Instant, Reassembler, Reassembly, SendLog, Sender,
-    SeqNum,
+    AckNackBits, Duration, FaultRng as Rng, FragmentPlan, InputWindow, Instant, Reassembler, Reassembly, SendLog,
+    Sender, SeqNum, SliceSink,
 };
 
 const DEPTH: u16 = 16;
 const PERIOD: Duration = Duration::from_millis(100);
 const MS: Duration = Duration::from_millis(1);
-
-/// xorshift64*: a small seeded PRNG, so every run sees the same losses.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn chance(&mut self, percent: u64) -> bool {
-        self.next() % 100 < percent
-    }
-}
 
 #[derive(Clone, Debug)]
 enum Body {
@@ -60,7 +45,7 @@ impl Link {
         for _ in 0..copies {
             let detour = rng.chance(20);
             self.delayed += usize::from(detour);
-            let delay = if detour { 1 + (rng.next() % 40) as i64 } else { 1 };
+            let delay = if detour { 1 + (rng.next_u64() % 40) as i64 } else { 1 };
             self.queue.push((now + Duration(delay * MS.0), p.clone()));
         }
     }
@@ -88,21 +73,6 @@ impl SendLog for InFlight {
     }
 }
 
-struct VecSink(Vec<u8>);
-
-impl FragmentSink for VecSink {
-    fn len(&self) -> usize {
-        self.0.len()
-    }
-    fn extend(&mut self, data: &[u8]) -> bool {
-        self.0.extend_from_slice(data);
-        true
-    }
-    fn clear(&mut self) {
-        self.0.clear();
-    }
-}
-
 fn payload(i: u32) -> Vec<u8> {
     // Every 5th payload is cut into fragments.
     let len = if i.is_multiple_of(5) { 700 } else { 20 };
@@ -117,7 +87,7 @@ struct Cost {
 }
 
 fn run(seed: u64, n: u32) -> Cost {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let (mut to_rx, mut to_tx) = (Link::default(), Link::default());
     let mut now = Instant(5_000_000);
     // Sender.
@@ -130,7 +100,8 @@ fn run(seed: u64, n: u32) -> Cost {
     let mut rx = InputWindow::new();
     let mut stored: BTreeMap<u16, Body> = BTreeMap::new();
     let mut reassembler = Reassembler::default();
-    let mut sink = VecSink(Vec::new());
+    let mut joined = [0u8; 4096];
+    let mut sink = SliceSink::new(&mut joined);
     let mut delivered: Vec<Vec<u8>> = Vec::new();
     let mut next_payload = 0;
     let end = now + Duration::from_millis(600_000);
@@ -177,7 +148,7 @@ fn run(seed: u64, n: u32) -> Cost {
                             Body::Whole(p) => delivered.push(p),
                             Body::Fragment { last, chunk } => {
                                 match reassembler.push(&mut sink, &[], &chunk, last, 4096) {
-                                    Reassembly::Complete => delivered.push(std::mem::take(&mut sink.0)),
+                                    Reassembly::Complete => delivered.push(sink.as_slice().to_vec()),
                                     Reassembly::Partial => {}
                                     Reassembly::TooLarge(n) => panic!("{n} bytes too large"),
                                 }

@@ -11,7 +11,9 @@
 //! * [`Probe`], [`Rtt`]: round-trip estimate and tail-loss probes.
 //! * [`FragmentPlan`], [`Reassembler`]: cutting a submessage into FRAGMENTs and joining them.
 //! * [`Instant`], [`Duration`]: microseconds, from whatever clock the caller has.
+//! * [`FaultRng`]: seeded faults for tests of all this over a lossy link.
 
+mod fault;
 mod fragment;
 mod input;
 mod output;
@@ -19,6 +21,7 @@ mod probe;
 mod seq;
 mod time;
 
+pub use fault::FaultRng;
 pub use fragment::{Chunk, Chunks, FragmentPlan, FragmentSink, Reassembler, Reassembly, SliceSink};
 pub use input::{AckNackBits, InputWindow, Nacked};
 pub use output::{SendLog, Sender, DEFAULT_RETRANSMIT_FLOOR, MAX_RETRANSMIT_INTERVAL};
