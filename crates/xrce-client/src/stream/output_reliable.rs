@@ -2,34 +2,21 @@
 //!
 //! The buffer is split into `history` slots; slot `seq mod history` holds message `seq`. A message can be
 //! written only while its slot is inside the window (`seq - last_acknown <= history`); when it is not, writes
-//! fail with [`Error::WouldBlock`] instead of stalling. HEARTBEATs go out every 100 ms while something is
-//! unacknowledged; an ACKNACK releases slots.
+//! fail with [`Error::WouldBlock`] instead of stalling. An ACKNACK releases slots.
 //!
-//! Retransmission departs from the C client on purpose (the wire is unchanged, the agent sees ordinary,
-//! byte-identical resends). The C client resends its whole unacknowledged window on every ACKNACK carrying a
-//! NACK bit (go-back-N, spec §9.3 step 4). Agents send one ACKNACK per reliable message they receive, so under
-//! loss plus reordering many ACKNACKs report the same gap, each one resent the whole window, each resend drew
-//! more ACKNACKs, and retransmissions grew without bound. Here, as the agent does for its own output (§9.5):
-//! * only the sequence numbers whose NACK bit is set are resent (selective repeat);
-//! * a message already retransmitted is not retransmitted again before a minimum interval since its last
-//!   transmission: `max(floor, srtt)` capped at [`MAX_RETRANSMIT_INTERVAL_NS`], where the round
-//!   trip is estimated from ACKNACKs acknowledging messages sent once (Karn's rule) and the floor defaults to
-//!   [`DEFAULT_RETRANSMIT_FLOOR_NS`] ([`OutputReliable::set_retransmit_floor`]); a first retransmission is
-//!   immediate, as with the C client and the agent;
-//! * an ACKNACK without NACK bits only releases slots, it never resends.
-//!
-//! Tail losses (the last messages sent, or the ACKNACK of a full window) are recovered by a HEARTBEAT, whose
-//! answer names the gaps. The C client waits 100 ms for it; here, once an acknowledgement has given a
-//! round-trip sample, the first HEARTBEAT after a send goes out a *probe timeout* later,
-//! `max(2 × smallest round trip, PROBE_FLOOR_NS)` (not srtt: a sample that waited for a lost ACKNACK would
-//! stretch it), doubling with every HEARTBEAT left unanswered by progress, up to the
-//! C client's 100 ms (measured through a 20 % lossy link: see docs/benchmarks.md). Without an estimate yet
-//! (the first messages of a session) the period is the C client's.
+//! Acknowledgement, retransmission and HEARTBEATs are the shared engine's ([`xrce_proto::reliable::Sender`],
+//! the agent runs the same): selective repeat of the NACKed messages only, a repeat deferred until
+//! `max(floor, srtt)` has passed since the last send (the floor defaults to [`DEFAULT_RETRANSMIT_FLOOR_NS`],
+//! [`OutputReliable::set_retransmit_floor`]), and tail-loss probes: the C client's 100 ms HEARTBEAT period
+//! until a round trip is known, then `max(2 × smallest round trip, PROBE_FLOOR_NS)` after the last send or
+//! progress, doubling while unanswered up to the period. The C client instead resends its whole window on
+//! every NACK (go-back-N, spec §9.3 step 4), which under loss plus reordering grew without bound; the wire is
+//! unchanged, the agent sees ordinary, byte-identical resends.
 //!
 //! Each slot's 4-byte length word (not on the wire, as in the C client) holds the message length (2 bytes) and
-//! 2 bytes of bookkeeping: whether the message ends with a FRAGMENT, whether it was sent and retransmitted, and
-//! the time of its last transmission in milliseconds modulo 8192. Slot capacity, and so the fragmentation
-//! layout, stay exactly the C client's.
+//! 2 bytes of bookkeeping the engine reads through [`SendLog`]: whether the message ends with a FRAGMENT,
+//! whether it was sent and retransmitted, and the time of its last transmission in milliseconds modulo 8192.
+//! Slot capacity, and so the fragmentation layout, stay exactly the C client's.
 
 use super::{align4, seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
