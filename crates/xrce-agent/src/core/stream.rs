@@ -226,6 +226,13 @@ impl BestEffortOut {
     }
 }
 
+/// Floor of the interval before a message NACKed again is retransmitted again (the interval is the larger of
+/// this and the smoothed round trip). Lower than the client's 20 ms: the agent has no timer for a deferred
+/// resend (it goes with the next ACKNACK or flush), and a client whose input history is smaller than the
+/// agent's window rejects, and so NACKs, whole runs of messages behind each gap. With 20 ms, reliable 1024 B
+/// through `lossy-proxy --drop 0.05` fell from ~2,300 to ~550 samples/s; with 2 ms it stays at the former.
+pub const RETRANSMIT_FLOOR: reliable::Duration = reliable::Duration::from_millis(2);
+
 /// A message in flight, complete with header, and when it last left.
 #[derive(Debug, Clone)]
 struct Flight {
@@ -278,8 +285,10 @@ pub struct ReliableOut {
 impl ReliableOut {
     /// An empty stream whose first message will be sequence 0.
     pub fn new(window: u16, max_pending: usize) -> Self {
+        let mut sender = Sender::new();
+        sender.set_retransmit_floor(RETRANSMIT_FLOOR);
         Self {
-            sender: Sender::new(),
+            sender,
             window: window.clamp(1, 16),
             in_flight: VecDeque::new(),
             pending: VecDeque::new(),
@@ -577,18 +586,19 @@ mod tests {
         // Seq 0 acknowledged after 4 ms (the round trip), seq 1 NACKed: resent at once.
         out.on_acknack(&nack1, t0 + 4 * ms, period, &mut pool, |m| resent.push(m[2]));
         assert_eq!(resent, [1]);
-        // The same gap reported again by ACKNACKs already on their way: not again within the interval.
-        out.on_acknack(&nack1, t0 + 6 * ms, period, &mut pool, |m| resent.push(m[2]));
-        out.flush(&header, 5, Some(t0 + 10 * ms), &mut pool, |m| resent.push(m[2]));
+        // The same gap reported again by ACKNACKs already on their way: not again within the interval, the
+        // 4 ms round trip (over the 2 ms floor).
+        out.on_acknack(&nack1, t0 + 5 * ms, period, &mut pool, |m| resent.push(m[2]));
+        out.flush(&header, 5, Some(t0 + 7 * ms), &mut pool, |m| resent.push(m[2]));
         assert_eq!(resent, [1]);
-        // Unacknowledged when the interval (the 20 ms floor) has passed: it goes again.
-        out.flush(&header, 5, Some(t0 + 24 * ms), &mut pool, |m| resent.push(m[2]));
+        // Unacknowledged when the interval has passed: it goes again with the next flush.
+        out.flush(&header, 5, Some(t0 + 8 * ms), &mut pool, |m| resent.push(m[2]));
         assert_eq!(resent, [1, 1]);
         // The probe: twice the 4 ms round trip after arming.
-        assert_eq!(out.arm_probe(t0 + 24 * ms, period), Some(t0 + 32 * ms));
-        let (beat, next) = out.fire_probe(0x80, t0 + 32 * ms, t0 + 32 * ms, period);
+        assert_eq!(out.arm_probe(t0 + 8 * ms, period), Some(t0 + 16 * ms));
+        let (beat, next) = out.fire_probe(0x80, t0 + 16 * ms, t0 + 16 * ms, period);
         assert_eq!(beat.map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((1, 2)));
-        assert_eq!(next, Some(t0 + 48 * ms), "backed off");
+        assert_eq!(next, Some(t0 + 32 * ms), "backed off");
         assert_eq!(out.probe_due(), next);
     }
 
