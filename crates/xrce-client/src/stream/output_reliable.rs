@@ -483,8 +483,11 @@ impl<'a> OutputReliable<'a> {
     }
 
     /// When the next HEARTBEAT is due, if any.
-    pub fn heartbeat_deadline(&self) -> Option<i64> {
-        self.sender.probe.due().map(Instant::as_nanos)
+    pub const fn heartbeat_deadline(&self) -> Option<i64> {
+        match self.sender.probe.due() {
+            Some(due) => Some(due.as_nanos()),
+            None => None,
+        }
     }
 
     /// An ACKNACK for this stream: release what is acknowledged, then schedule a resend of each NACKed message

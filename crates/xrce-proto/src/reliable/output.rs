@@ -227,3 +227,63 @@ impl Sender {
         self.probe.due.min(self.deferred_at).armed()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Send times of up to 16 messages from sequence number 0, none acknowledged.
+    #[derive(Default)]
+    struct Log([Option<(Instant, bool)>; 16]);
+
+    impl SendLog for Log {
+        fn since_sent(&self, seq: SeqNum, now: Instant) -> Option<(Duration, bool)> {
+            let (at, resent) = (*self.0.get(usize::from(seq.0))?)?;
+            Some((now.since(at), resent))
+        }
+        fn stamp(&mut self, seq: SeqNum, now: Instant, retransmission: bool) {
+            if let Some(e) = self.0.get_mut(usize::from(seq.0)) {
+                *e = Some((now, e.is_some_and(|(_, r)| r) || retransmission));
+            }
+        }
+    }
+
+    const PERIOD: Duration = Duration::from_millis(100);
+    const fn at(ms: i64) -> Instant {
+        Instant(ms * 1000)
+    }
+    const fn ack(first: u16, bitmap: u16) -> AckNackBits {
+        AckNackBits { first_unacked: SeqNum(first), bitmap }
+    }
+
+    #[test]
+    fn a_repeated_nack_waits_an_interval_and_an_acknowledgement_cancels_it() {
+        let (mut s, mut log) = (Sender::new(), Log::default());
+        for i in 0..4 {
+            s.on_sent(&mut log, SeqNum(i), at(0));
+        }
+        // Seq 0 acknowledged after 5 ms (a round-trip sample), 1 and 3 NACKed: both go at once.
+        assert_eq!(s.on_acknack(&mut log, ack(1, 0b101), at(5), PERIOD), 1);
+        assert_eq!(s.probe.rtt.min(), Some(Duration::from_millis(5)));
+        assert_eq!(s.next_retransmission(&mut log, at(5)), Some(SeqNum(1)));
+        assert_eq!(s.next_retransmission(&mut log, at(5)), Some(SeqNum(3)));
+        assert_eq!(s.next_retransmission(&mut log, at(5)), None);
+        // NACKed again 2 ms later: deferred to 20 ms after the resend.
+        assert_eq!(s.on_acknack(&mut log, ack(1, 0b101), at(7), PERIOD), 0);
+        assert_eq!(s.next_retransmission(&mut log, at(7)), None);
+        assert_eq!(s.timeout(), Some(at(25)), "the probe is not armed: only the deferred resend");
+        // Seq 1 acknowledged meanwhile: only 3 goes when the interval ends.
+        assert_eq!(s.on_acknack(&mut log, ack(3, 0), at(10), PERIOD), 2);
+        assert_eq!(s.next_retransmission(&mut log, at(24)), None);
+        assert_eq!(s.next_retransmission(&mut log, at(25)), Some(SeqNum(3)));
+        // Stale (already acknowledged) and bogus (never sent) NACKs are ignored; no resend, no release.
+        assert_eq!(s.on_acknack(&mut log, ack(0, 0b1), at(30), PERIOD), 0);
+        assert_eq!(s.on_acknack(&mut log, ack(9, 0b1), at(30), PERIOD), 0);
+        assert!(!s.has_retransmission());
+        assert_eq!(s.heartbeat(), Some((SeqNum(3), SeqNum(3))));
+        // Released after a retransmission: no round-trip sample (Karn).
+        assert_eq!(s.on_acknack(&mut log, ack(4, 0), at(90), PERIOD), 1);
+        assert_eq!(s.probe.rtt.min(), Some(Duration::from_millis(5)));
+        assert!(!s.unacked() && s.poll_heartbeat(at(200), PERIOD).is_none());
+    }
+}
