@@ -237,6 +237,7 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
             id,
             variant,
             CreationMode::from_flags(flags),
+            Instant::now(),
         ))
     }
 

@@ -569,7 +569,7 @@ fn binary_subscriber_with(h: &mut DdsHarness, port: u16, key: u32, topic: &str, 
 /// Back-pressure through DDS: a fast XRCE publisher and a slow XRCE subscriber of the same agent (it reads
 /// ten samples per READ_DATA, a new READ_DATA every couple of milliseconds) exchange 5,000 reliable
 /// samples through RustDDS without losing one. The subscriber's reader is KEEP_LAST 1 (its bridge queue and
-/// RustDDS' topic cache are then the smallest: 1,024 samples), so without `can_write` holding the
+/// RustDDS' topic cache are then the smallest: 1,024 samples), so without the write credit holding the
 /// publisher's reliable stream the publisher runs thousands of samples ahead and RustDDS evicts them.
 #[test]
 #[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]

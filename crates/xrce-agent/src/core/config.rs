@@ -37,8 +37,9 @@ pub struct CoreConfig {
     pub max_reassembly_size: usize,
     /// Bytes a client may keep in out-of-order input buffers and reassembly buffers together.
     pub max_buffered_bytes_per_client: usize,
-    /// Outgoing messages waiting for the shell; beyond it the oldest are dropped (reliable ones are
-    /// retransmitted later).
+    /// Stream messages one client may have waiting for the shell (its outbox); beyond it the oldest are
+    /// dropped (reliable ones are retransmitted later). Control messages are bounded apart
+    /// (256 per client) and never dropped for stream messages; also bounds replies outside a session.
     pub max_transmit_queue: usize,
     /// Heartbeat period of reliable output streams (and liveliness probes).
     pub heartbeat_period: Duration,

@@ -1,25 +1,36 @@
 //! The sans-IO agent core: datagrams in, datagrams out, middleware calls on the side.
 //!
-//! The shell (UDP, TCP, a test) feeds every received message with [`AgentCore::handle_datagram`], calls
-//! [`AgentCore::handle_timeout`] when [`AgentCore::poll_timeout`] says so, and sends what
-//! [`AgentCore::poll_transmit`] yields. The core never reads a clock or touches a socket: `now` comes from the
-//! shell, and wall-clock time (TIMESTAMP_REPLY) from the anchor set with [`AgentCore::set_wall_clock`].
+//! Shaped like quinn-proto's `Endpoint` and `Connection`: [`AgentCore`] is the endpoint (the client table,
+//! routing by key or address, CREATE_CLIENT, the turn order of outgoing messages, the timer queue); each
+//! proxy client is a [`connection::Connection`], a state machine that handles its messages, keeps its own
+//! timers and queues what it has to send.
+//!
+//! The shell (UDP, TCP, serial, a test) feeds every received message with [`AgentCore::handle_datagram`],
+//! calls [`AgentCore::handle_timeout`] when [`AgentCore::poll_timeout`] says so, and sends what
+//! [`AgentCore::poll_transmit`] yields. The core never reads a clock or touches a socket: `now` comes from
+//! the shell, and wall-clock time (TIMESTAMP_REPLY) from the anchor set with [`AgentCore::set_wall_clock`].
 //! `E` is whatever identifies a peer for the shell (a socket address, a connection id).
 
+mod clients;
 pub mod config;
+mod connection;
+mod deliver;
 pub mod droplog;
-pub mod object;
-pub mod probe;
-pub mod read;
-pub mod session;
-pub mod stream;
-pub mod vecmap;
+mod entities;
+mod input;
+mod object;
+mod outbox;
+mod probe;
+mod read;
+mod session;
+mod stream;
+mod vecmap;
 
-mod process;
 #[cfg(test)]
 mod tests;
 
-use std::collections::{HashMap, VecDeque};
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap, VecDeque};
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};
@@ -27,9 +38,10 @@ use std::time::{Duration, Instant};
 use xrce_proto::{ClientKey, MessageHeader, ObjectId, StatusCode};
 
 pub use config::CoreConfig;
-use session::ProxyClient;
+use connection::{Connection, Ctx, Liveness};
 
-use crate::middleware::{EntityRef, Middleware};
+use crate::bufpool::BufPool;
+use crate::middleware::Middleware;
 
 /// Samples written within one receive batch before readers are served anyway (see
 /// [`AgentCore::handle_datagram`]): under the 16 samples a CED topic keeps for best-effort readers, and above
@@ -57,12 +69,14 @@ pub struct CoreStats {
     pub decode_errors: u64,
     /// Messages queued for sending.
     pub messages_out: u64,
-    /// Outgoing messages dropped (transmit queue full, too large for the MTU on a best-effort stream).
+    /// Outgoing messages dropped (outbox full, too large for the MTU on a best-effort stream).
     pub messages_dropped_out: u64,
     /// Times the shell polled the middleware after its waker fired ([`AgentCore::poll_middleware`]).
     pub middleware_polls: u64,
-    /// Tail-loss probes sent: HEARTBEATs ahead of the period ([`probe`]).
+    /// Tail-loss probes sent: HEARTBEATs ahead of the period.
     pub tail_probes: u64,
+    /// Samples from best-effort streams the middleware could not take (a full DDS history), dropped.
+    pub samples_dropped_in: u64,
 }
 
 /// The agent core. See the module documentation.
@@ -70,41 +84,28 @@ pub struct AgentCore<E, M> {
     config: CoreConfig,
     middleware: M,
     /// Boxed: the table's spare capacity then costs a pointer per slot, not a whole client.
-    clients: HashMap<ClientKey, Box<ProxyClient<E>>>,
+    clients: HashMap<ClientKey, Box<Connection<E>>>,
     by_endpoint: HashMap<E, ClientKey>,
-    transmits: VecDeque<Transmit<E>>,
+    /// Replies to peers outside any session (STATUS_AGENT, INFO, the STATUS of a deleted client).
+    stateless: VecDeque<Transmit<E>>,
+    /// Clients with messages waiting, per class, in turn order ([`outbox`]).
+    turns: outbox::TurnLists,
+    /// Clients owing ACKNACKs, in turn order.
+    acking: VecDeque<ClientKey>,
+    /// Each client's next timer, earliest first; an entry that no longer matches its client's is stale.
+    timers: BinaryHeap<Reverse<(Instant, ClientKey)>>,
+    /// Clients with read tasks, whose readers the middleware may have samples for.
+    reading: Vec<ClientKey>,
+    /// Clients with reliable input held back until the middleware can take its writes.
+    blocked: Vec<ClientKey>,
+    /// Samples written since readers were last served: they are served once per batch of datagrams (so
+    /// one message carries several samples), or within it past [`PUMP_AFTER_WRITES`]; `None` when nothing
+    /// waits for delivery.
+    unserved_writes: Option<usize>,
     /// Recycled message buffers (see [`Self::recycle`]).
-    pool: stream::BufPool,
-    /// Reused list of messages produced while a client is borrowed.
-    scratch: Vec<Vec<u8>>,
-    heartbeat_due: Option<Instant>,
-    /// Tail-loss probe timers of the reliable output streams.
+    pool: BufPool,
     /// Rate limit of the warnings about bad input, per peer.
     drop_log: droplog::DropLog<E>,
-    probes: probe::ProbeTimers,
-    pump_needed: bool,
-    /// Datagrams were handled since the last pump: samples are delivered (and held-back input retried) once
-    /// per batch, by the next [`Self::poll_transmit`], so one message can carry several samples.
-    pump_deferred: bool,
-    /// Samples written since the last pump: past [`PUMP_AFTER_WRITES`] the pump runs within the batch, so a
-    /// best-effort reader (whose CED topic keeps 16 samples) loses nothing to a long batch.
-    writes_since_pump: usize,
-    /// ACKNACKs at the front of `transmits` that [`Self::poll_acknack`] may still yield.
-    acks_at_front: usize,
-    /// Reliable input streams holding a message back until the middleware can take its writes.
-    blocked: Vec<(ClientKey, xrce_proto::StreamId)>,
-    /// Reliable input streams owed an ACKNACK (sent, coalesced, by [`Self::poll_transmit`]).
-    acks_due: Vec<(ClientKey, xrce_proto::StreamId)>,
-    /// Set while a read task is pumped: reliable DATA waits to be packed.
-    pumping: bool,
-    /// Messages ever queued for the shell (identifies the newest one).
-    pushes: u64,
-    /// The newest queued message is a best-effort one to this client and stream: more DATA may join it.
-    open_be: Option<(u64, ClientKey, u8)>,
-    /// Clients that may have read tasks (cleaned lazily by the pump).
-    reading: Vec<ClientKey>,
-    /// Reused list of reader ids while pumping.
-    scratch_ids: Vec<ObjectId>,
     wall_anchor: Option<(Instant, Duration)>,
     last_now: Option<Instant>,
     stats: CoreStats,
@@ -114,7 +115,7 @@ impl<E: Debug, M> Debug for AgentCore<E, M> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("AgentCore")
             .field("clients", &self.clients.len())
-            .field("transmits", &self.transmits.len())
+            .field("stateless", &self.stateless.len())
             .field("stats", &self.stats)
             .finish_non_exhaustive()
     }
@@ -132,23 +133,15 @@ where
             middleware,
             clients: HashMap::new(),
             by_endpoint: HashMap::new(),
-            transmits: VecDeque::new(),
-            pool: stream::BufPool::default(),
-            scratch: Vec::new(),
-            heartbeat_due: None,
-            probes: probe::ProbeTimers::default(),
-            drop_log: droplog::DropLog::default(),
-            pump_needed: false,
-            pump_deferred: false,
-            writes_since_pump: 0,
-            acks_at_front: 0,
-            blocked: Vec::new(),
-            acks_due: Vec::new(),
-            pumping: false,
-            pushes: 0,
-            open_be: None,
+            stateless: VecDeque::new(),
+            turns: outbox::TurnLists::default(),
+            acking: VecDeque::new(),
+            timers: BinaryHeap::new(),
             reading: Vec::new(),
-            scratch_ids: Vec::new(),
+            blocked: Vec::new(),
+            unserved_writes: None,
+            pool: BufPool::default(),
+            drop_log: droplog::DropLog::default(),
             wall_anchor: None,
             last_now: None,
             stats: CoreStats::default(),
@@ -205,102 +198,111 @@ where
             self.wall_anchor = Some((now, Duration::ZERO));
         }
         self.last_now = Some(now);
-        self.process_datagram(from, bytes, now);
-        self.pump_deferred = true;
-        if self.writes_since_pump >= PUMP_AFTER_WRITES {
-            self.pump_and_retry(now);
+        self.route_datagram(from, bytes, now);
+        if self.unserved_writes.is_some_and(|n| n >= PUMP_AFTER_WRITES) {
+            self.serve_readers(now);
         }
     }
 
     /// Runs the delivery deferred by [`Self::handle_datagram`] (also done by [`Self::poll_transmit`]).
     pub fn end_batch(&mut self) {
-        if std::mem::take(&mut self.pump_deferred) {
-            if let Some(now) = self.last_now {
-                self.pump_and_retry(now);
-            }
-        }
-    }
-
-    /// Delivers samples, then retries held-back reliable input streams while that makes progress.
-    fn pump_and_retry(&mut self, now: Instant) {
-        self.pump_deferred = false;
-        self.writes_since_pump = 0;
-        for _ in 0..4 {
-            if self.pump_needed {
-                self.pump_reads(now);
-            }
-            if self.blocked.is_empty() {
-                break;
-            }
-            self.retry_blocked(now);
-            if !self.pump_needed {
-                break;
-            }
+        if let (Some(_), Some(now)) = (self.unserved_writes, self.last_now) {
+            self.serve_readers(now);
         }
     }
 
     /// The next instant [`Self::handle_timeout`] must be called, if any.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let reads = self
-            .reading
-            .iter()
-            .filter_map(|k| self.clients.get(k))
-            .flat_map(|c| c.reads.values())
-            .filter_map(read::ReadTask::wake_at)
-            .min();
-        [self.heartbeat_due, self.probes.next_due(), reads].into_iter().flatten().min()
+        self.timers.peek().map(|Reverse((due, _))| *due)
     }
 
-    /// Runs timers: heartbeats, liveliness probes, removal of dead clients, paced reads.
+    /// Runs the clients' timers that are due (heartbeats, liveliness, tail-loss probes, paced reads) and the
+    /// middleware's pending work.
     pub fn handle_timeout(&mut self, now: Instant) {
         self.last_now = Some(now);
-        if self.heartbeat_due.is_some_and(|due| now >= due) {
-            self.heartbeat_due = None;
-            self.heartbeat_tick(now);
+        // The clients due now, each run once per call (a timer it re-arms at or before `now` waits for the
+        // next call, so a turn cannot loop).
+        let mut due_now = Vec::new();
+        while let Some(Reverse((due, key))) = self.timers.peek().copied() {
+            if due > now {
+                break;
+            }
+            self.timers.pop();
+            let Some(client) = self.clients.get_mut(&key) else { continue };
+            if client.timer_queued != Some(due) {
+                continue; // stale: an earlier entry was queued for this client since
+            }
+            client.timer_queued = None;
+            due_now.push(key);
         }
-        self.fire_probes(now);
+        for key in due_now {
+            let (mut ctx, client) = self.ctx_for(key);
+            let Some(client) = client else { continue };
+            if client.poll_timeout().is_none_or(|t| t > now) {
+                // The client's timer moved later since: queue it at its new instant.
+                self.schedule(key);
+                continue;
+            }
+            let liveness = client.handle_timeout(&mut ctx, now);
+            let retry = ctx.retry;
+            if liveness == Liveness::Remove {
+                tracing::info!(client = %key, "client dead, removing");
+                self.remove_client(key);
+                continue;
+            }
+            self.after_turn(key, retry);
+        }
         self.middleware.poll(now);
-        self.pump_needed = true;
-        self.pump_and_retry(now);
+        self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));
+        self.serve_readers(now);
     }
 
     /// Polls the readers of active read tasks; call it when an asynchronous middleware's waker fired.
     pub fn poll_middleware(&mut self, now: Instant) {
         self.stats.middleware_polls = self.stats.middleware_polls.saturating_add(1);
         self.middleware.poll(now);
-        self.pump_needed = true;
-        self.pump_and_retry(now);
+        self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));
+        self.serve_readers(now);
     }
 
     /// The ACKNACKs owed for the reliable messages handled so far, one at a time, before the batch's samples
     /// are delivered: a shell can send them ahead of the rest, so a publisher whose history is full gets its
     /// slots back without waiting for the deliveries to be built.
     pub fn poll_acknack(&mut self) -> Option<Transmit<E>> {
-        if !self.acks_due.is_empty() {
-            self.acks_at_front += self.flush_acknacks();
+        while let Some(key) = self.acking.pop_front() {
+            let Some(client) = self.clients.get_mut(&key) else { continue };
+            let ack = client.next_acknack(&mut self.pool);
+            if !client.acks_due.is_empty() {
+                self.acking.push_back(key);
+            }
+            if let (Some(data), Some(to)) = (ack, client.endpoint) {
+                self.stats.messages_out = self.stats.messages_out.saturating_add(1);
+                return Some(Transmit { to, data });
+            }
         }
-        if self.acks_at_front == 0 {
-            return None;
-        }
-        self.pop_transmit()
+        None
     }
 
-    /// The next message to send.
+    /// The next message to send, in this order: ACKNACKs owed (built now, with their stream's latest state),
+    /// replies outside a session, clients' control messages, clients' stream messages, one client per turn
+    /// ([`outbox`]).
     pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
         self.end_batch();
-        if !self.acks_due.is_empty() {
-            self.acks_at_front += self.flush_acknacks();
+        if let Some(t) = self.poll_acknack() {
+            return Some(t);
         }
-        self.pop_transmit()
-    }
-
-    fn pop_transmit(&mut self) -> Option<Transmit<E>> {
-        self.acks_at_front = self.acks_at_front.saturating_sub(1);
-        let t = self.transmits.pop_front();
-        if self.transmits.is_empty() {
-            self.open_be = None;
+        if let Some(t) = self.stateless.pop_front() {
+            return Some(t);
         }
-        t
+        for class in [outbox::Class::Control, outbox::Class::Stream] {
+            while let Some((client, data)) = self.turns.next(class, &mut self.clients, client_outbox) {
+                match client.endpoint {
+                    Some(to) => return Some(Transmit { to, data }),
+                    None => self.pool.put(data),
+                }
+            }
+        }
+        None
     }
 
     /// Gives the buffer of a sent [`Transmit`] back for reuse (optional; saves an allocation per message).
@@ -310,7 +312,8 @@ where
 
     /// Number of messages waiting in [`Self::poll_transmit`] (at least one while a batch awaits delivery).
     pub fn pending_transmits(&self) -> usize {
-        self.transmits.len() + self.acks_due.len() + usize::from(self.pump_deferred)
+        let queued: usize = self.clients.values().map(|c| c.outbox.len() + c.acks_due.len()).sum();
+        queued + self.stateless.len() + usize::from(self.unserved_writes.is_some())
     }
 
     /// Creates or refreshes a client without a CREATE_CLIENT message (library API; eProsima's
@@ -326,10 +329,10 @@ where
         for client in self.clients.values_mut() {
             if client.endpoint == Some(endpoint) {
                 client.endpoint = None;
+                client.outbox.clear();
             }
         }
-        self.transmits.retain(|t| t.to != endpoint);
-        self.open_be = None;
+        self.stateless.retain(|t| t.to != endpoint);
     }
 
     /// Deletes a client and all its entities.
@@ -346,8 +349,10 @@ where
         for key in self.client_keys() {
             self.remove_client(key);
         }
-        self.transmits.clear();
-        self.open_be = None;
+        self.stateless.clear();
+        self.turns.clear();
+        self.acking.clear();
+        self.timers.clear();
     }
 
     /// Creates an entity for a client as a CREATE would (library API).
@@ -357,184 +362,134 @@ where
         id: ObjectId,
         variant: &xrce_proto::EntityVariant<'_>,
         mode: xrce_proto::submessage::CreationMode,
+        now: Instant,
     ) -> StatusCode {
-        if !self.clients.contains_key(&key) {
-            return StatusCode::ERR_UNKNOWN_REFERENCE;
-        }
-        self.pump_needed = true;
-        self.create_object(key, id, variant, mode, xrce_proto::Endianness::Little)
+        let (mut ctx, client) = self.ctx_for(key);
+        let Some(client) = client else { return StatusCode::ERR_UNKNOWN_REFERENCE };
+        let status = client.create_object(&mut ctx, id, variant, mode, xrce_proto::Endianness::Little, now);
+        self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));
+        self.after_turn(key, true);
+        status
     }
 
     /// Deletes an entity and its children (library API).
     pub fn delete_entity(&mut self, key: ClientKey, id: ObjectId) -> StatusCode {
-        self.delete_object(key, id)
+        let (mut ctx, client) = self.ctx_for(key);
+        let Some(client) = client else { return StatusCode::ERR_UNKNOWN_REFERENCE };
+        client.delete_object(&mut ctx, id)
     }
 
     // ---- internals shared by the submodules ----
 
-    fn push_transmit(&mut self, to: Option<E>, data: Vec<u8>) {
-        let Some(to) = to else {
-            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
-            return;
+    /// A client with the context it runs in (the endpoint's middleware, limits, counters and buffers).
+    fn ctx_for(&mut self, key: ClientKey) -> (Ctx<'_, E, M>, Option<&mut Connection<E>>) {
+        let ctx = Ctx {
+            middleware: &mut self.middleware,
+            config: &self.config,
+            stats: &mut self.stats,
+            pool: &mut self.pool,
+            drop_log: &mut self.drop_log,
+            wall_anchor: self.wall_anchor,
+            writes: 0,
+            retry: false,
         };
-        if self.transmits.len() >= self.config.max_transmit_queue {
-            self.transmits.pop_front();
-            self.stats.messages_dropped_out = self.stats.messages_dropped_out.saturating_add(1);
-        }
-        self.stats.messages_out = self.stats.messages_out.saturating_add(1);
-        self.pushes = self.pushes.wrapping_add(1);
-        self.transmits.push_back(Transmit { to, data });
+        (ctx, self.clients.get_mut(&key).map(|c| &mut **c))
     }
 
-    fn wall_time(&self, now: Instant) -> xrce_proto::Time {
-        let (at, since_epoch) = self.wall_anchor.unwrap_or((now, Duration::ZERO));
-        let t = if now >= at { since_epoch.saturating_add(now - at) } else { since_epoch.saturating_sub(at - now) };
-        xrce_proto::Time { seconds: i32::try_from(t.as_secs()).unwrap_or(i32::MAX), nanoseconds: t.subsec_nanos() }
-    }
-
-    /// Sends the tail-loss probes that are due (see [`probe`]).
-    fn fire_probes(&mut self, now: Instant) {
-        let period = self.config.heartbeat_period;
-        while let Some((due, key, sid)) = self.probes.pop_due(now) {
-            let Some(out) = self.clients.get_mut(&key).and_then(|c| c.streams.rel_out.get_mut(&sid)) else { continue };
-            let (beat, next) = out.fire_probe(sid, due, now, period);
-            if let Some(next) = next {
-                self.probes.push(next, key, sid);
-            }
-            if let Some(hb) = beat {
-                self.stats.tail_probes = self.stats.tail_probes.saturating_add(1);
-                self.send_control(key, &xrce_proto::Submessage::Heartbeat(hb));
+    /// Takes up what a client's turn left: its messages and ACKNACKs in the turn lists, its timer, its read
+    /// tasks and held input in the endpoint's lists; `retry`: readers are served (and held input retried)
+    /// at the end of the batch.
+    fn after_turn(&mut self, key: ClientKey, retry: bool) {
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        for class in [outbox::Class::Control, outbox::Class::Stream] {
+            if client.outbox.has(class) {
+                self.turns.enlist(key, &mut client.outbox, class);
             }
         }
+        if !client.acks_due.is_empty() && !self.acking.contains(&key) {
+            self.acking.push_back(key);
+        }
+        if !client.reads.is_empty() && !self.reading.contains(&key) {
+            self.reading.push(key);
+        }
+        if !client.blocked.is_empty() && !self.blocked.contains(&key) {
+            self.blocked.push(key);
+        }
+        if retry {
+            self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));
+        }
+        self.schedule(key);
     }
 
-    /// Schedules a tail-loss probe a stream has just armed ([`stream::ReliableOut::arm_probe`]).
-    fn schedule_probe(&mut self, due: Option<Instant>, key: ClientKey, sid: u8) {
-        let Some(due) = due else { return };
-        self.probes.push(due, key, sid);
-        if self.probes.len() > 4 * self.clients.len() + 1024 {
+    /// Queues the client's next timer unless an entry at or before it is queued already.
+    fn schedule(&mut self, key: ClientKey) {
+        let Some(client) = self.clients.get_mut(&key) else { return };
+        let Some(due) = client.poll_timeout() else { return };
+        if client.timer_queued.is_some_and(|queued| queued <= due) {
+            return;
+        }
+        client.timer_queued = Some(due);
+        self.timers.push(Reverse((due, key)));
+        // Stale entries are dropped when they come due; past four per client the heap is rebuilt.
+        if self.timers.len() > 4 * self.clients.len() + 1024 {
             let clients = &self.clients;
-            self.probes.retain(|due, key, sid| {
-                clients.get(&key).and_then(|c| c.streams.rel_out.get(&sid)).and_then(|o| o.probe_due()) == Some(due)
-            });
+            self.timers.retain(|Reverse((due, key))| clients.get(key).is_some_and(|c| c.timer_queued == Some(*due)));
         }
     }
 
-    fn arm_heartbeat(&mut self, now: Instant) {
-        if self.heartbeat_due.is_none() {
-            self.heartbeat_due = Some(now + self.config.heartbeat_period);
+    /// Delivers samples to every client with read tasks, then retries held reliable input while that makes
+    /// progress (a delivery may free a writer's credit).
+    fn serve_readers(&mut self, now: Instant) {
+        self.unserved_writes = None;
+        for _ in 0..4 {
+            let clients = &self.clients;
+            self.reading.retain(|k| clients.get(k).is_some_and(|c| !c.reads.is_empty()));
+            for i in 0..self.reading.len() {
+                let Some(&key) = self.reading.get(i) else { break };
+                let (mut ctx, client) = self.ctx_for(key);
+                if let Some(client) = client {
+                    client.pump_reads(&mut ctx, now);
+                }
+                self.after_turn(key, false);
+            }
+            if self.blocked.is_empty() {
+                break;
+            }
+            let mut wrote = false;
+            for key in std::mem::take(&mut self.blocked) {
+                let (mut ctx, client) = self.ctx_for(key);
+                let Some(client) = client else { continue };
+                client.retry_blocked(&mut ctx, now);
+                wrote |= ctx.writes > 0;
+                self.after_turn(key, false);
+            }
+            if !wrote {
+                break;
+            }
         }
+        self.unserved_writes = None;
     }
 
     /// Removes a client: its entities (children first, so middleware callbacks see each), its read tasks, its
     /// endpoint binding.
     fn remove_client(&mut self, key: ClientKey) -> bool {
         let Some(mut client) = self.clients.remove(&key) else { return false };
-        for (reader, _) in client.reads.drain() {
-            self.middleware.stop_reading(EntityRef::new(key, reader));
-        }
-        for root in client.objects.roots() {
-            for id in client.objects.subtree(root) {
-                if let Err(e) = self.middleware.delete(EntityRef::new(key, id)) {
-                    tracing::debug!(client = %key, %id, "middleware delete failed: {e}");
-                }
-                client.objects.remove(id);
-            }
-        }
-        self.middleware.delete_client(key);
+        client.release(&mut self.middleware);
         if let Some(ep) = client.endpoint {
             if self.by_endpoint.get(&ep) == Some(&key) {
                 self.by_endpoint.remove(&ep);
             }
         }
+        self.reading.retain(|k| *k != key);
+        self.blocked.retain(|k| *k != key);
         tracing::info!(client = %key, "client removed");
         true
     }
+}
 
-    fn heartbeat_tick(&mut self, now: Instant) {
-        let dead_time = self.config.client_dead_time;
-        let mut remove = Vec::new();
-        let mut probe = Vec::new();
-        let mut beats = Vec::new();
-        let mut unpin = Vec::new();
-        let mut again = false;
-        for (key, client) in &mut self.clients {
-            let silent = now.saturating_duration_since(client.last_heard);
-            if self.config.remove_silent_clients_after.is_some_and(|limit| silent > limit) {
-                remove.push(*key);
-                continue;
-            }
-            // Back-pressure bound: a reader that is dead, or alive but acknowledging nothing for the dead time,
-            // stops holding its writers back.
-            let stalled = client.streams.rel_out.iter_mut().map(|(_, s)| s.stalled_for(now)).max().unwrap_or_default();
-            let dead = client.is_dead(now, dead_time);
-            if client.unpinned.is_none()
-                && (dead || stalled > dead_time)
-                && client.reads.values().any(|t| t.stream.is_reliable())
-            {
-                client.unpinned = Some(if dead { session::Unpinned::Dead } else { session::Unpinned::Stalled });
-                unpin.push(*key);
-            }
-            if dead {
-                if client.hard_liveliness.is_some() {
-                    if client.probes >= self.config.max_liveliness_probes {
-                        remove.push(*key);
-                    } else {
-                        client.probes += 1;
-                        probe.push(*key);
-                        again = true;
-                    }
-                }
-                continue;
-            }
-            if client.hard_liveliness.is_some() || self.config.remove_silent_clients_after.is_some() {
-                again = true;
-            }
-            for (sid, stream) in client.streams.rel_out.iter_mut() {
-                stream.trim();
-                if let Some(hb) = stream.heartbeat(*sid) {
-                    beats.push((*key, hb));
-                    again = true;
-                }
-            }
-        }
-        for key in unpin {
-            self.pin_readers(key, false);
-        }
-        for key in remove {
-            tracing::info!(client = %key, "client dead, removing");
-            self.remove_client(key);
-        }
-        for key in probe {
-            let probe = xrce_proto::submessage::GetInfo {
-                request: xrce_proto::BaseObjectRequest {
-                    request_id: xrce_proto::RequestId(0),
-                    object_id: ObjectId::CLIENT,
-                },
-                info_mask: 0,
-            };
-            self.send_control(key, &xrce_proto::Submessage::GetInfo(probe));
-        }
-        for (key, hb) in beats {
-            self.send_control(key, &xrce_proto::Submessage::Heartbeat(hb));
-        }
-        if again {
-            self.heartbeat_due = Some(now + self.config.heartbeat_period);
-        }
-    }
-
-    /// Encodes a one-submessage control message on stream 0 to a client.
-    fn send_control(&mut self, key: ClientKey, sub: &xrce_proto::Submessage<'_>) {
-        let Some(client) = self.clients.get(&key) else { return };
-        let header = client.header(xrce_proto::StreamId::NONE, 0);
-        let to = client.endpoint;
-        let mut buf = self.pool.get();
-        if encode_into(&mut buf, &header, sub) {
-            self.push_transmit(to, buf);
-        } else {
-            self.pool.put(buf);
-        }
-    }
+/// The outbox of a client, for [`outbox::TurnLists::next`].
+fn client_outbox<E>(client: &mut Box<Connection<E>>) -> &mut outbox::Outbox {
+    &mut client.outbox
 }
 
 /// Encodes `header` + one submessage.

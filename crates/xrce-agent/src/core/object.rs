@@ -38,11 +38,6 @@ impl ObjectTable {
         self.objects.len()
     }
 
-    /// Whether the table is empty.
-    pub fn is_empty(&self) -> bool {
-        self.objects.is_empty()
-    }
-
     /// Whether `id` exists.
     pub fn contains(&self, id: ObjectId) -> bool {
         self.objects.contains_key(&id)
@@ -86,11 +81,6 @@ impl ObjectTable {
     /// All root objects (participants), for deleting a whole client in order.
     pub fn roots(&self) -> Vec<ObjectId> {
         self.objects.iter().filter(|(_, e)| e.parent.is_none()).map(|(id, _)| *id).collect()
-    }
-
-    /// Every object id.
-    pub fn ids(&self) -> Vec<ObjectId> {
-        self.objects.keys().copied().collect()
     }
 }
 

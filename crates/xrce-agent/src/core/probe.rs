@@ -1,5 +1,5 @@
-//! Tail-loss probe timers of the agent's reliable output streams, and the agent's clock as the shared
-//! engine counts it.
+//! Tail-loss probes of the agent's reliable output streams, and the agent's clock as the shared engine
+//! counts it.
 //!
 //! The probe algorithm is the engine's ([`xrce_proto::reliable::Probe`], the client runs the same one): once
 //! an acknowledgement has given a round trip, a HEARTBEAT goes `max(2 × smallest round trip, PROBE_FLOOR)`
@@ -7,21 +7,13 @@
 //! (eProsima's agent only has its 200 ms `heartbeat_period`). Without a round-trip sample the stream is left
 //! to the periodic HEARTBEAT.
 //!
-//! The timers of all streams live in one heap ([`ProbeTimers`]); an entry whose stream was re-armed since is
-//! stale and skipped when it comes due, so the heap holds at most one live entry per stream; stale entries are
-//! purged when they outnumber the clients four to one (a re-arm needs an unanswered probe first, so at
-//! most one per stream per 2 ms).
+//! The timers of a client's streams are part of its connection's timer
+//! ([`Connection::poll_timeout`](super::connection::Connection::poll_timeout)).
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use xrce_proto::reliable;
-use xrce_proto::ClientKey;
-
-/// Shortest probe timeout, however short the round trip.
-pub const PROBE_FLOOR: Duration = Duration::from_micros(reliable::PROBE_FLOOR.0.unsigned_abs());
 
 /// The engine's epoch: the first time the agent asked for it. Earlier instants are negative.
 fn epoch() -> Instant {
@@ -52,54 +44,6 @@ pub(crate) fn engine_duration(d: Duration) -> reliable::Duration {
     reliable::Duration(i64::try_from(d.as_micros()).unwrap_or(i64::MAX))
 }
 
-/// The probe timers of every stream, earliest first.
-#[derive(Debug, Default)]
-pub struct ProbeTimers {
-    heap: BinaryHeap<Reverse<(Instant, ClientKey, u8)>>,
-}
-
-impl ProbeTimers {
-    /// Capacity kept by an empty heap (a burst of sessions must not pin its peak).
-    const KEEP: usize = 1024;
-
-    /// Schedules the probe of `stream` of client `key` at `due`.
-    pub fn push(&mut self, due: Instant, key: ClientKey, stream: u8) {
-        self.heap.push(Reverse((due, key, stream)));
-    }
-
-    /// The earliest scheduled instant.
-    pub fn next_due(&self) -> Option<Instant> {
-        self.heap.peek().map(|Reverse((due, _, _))| *due)
-    }
-
-    /// Takes the earliest entry if it is due at `now`.
-    pub fn pop_due(&mut self, now: Instant) -> Option<(Instant, ClientKey, u8)> {
-        if self.next_due()? > now {
-            return None;
-        }
-        let entry = self.heap.pop().map(|Reverse(e)| e);
-        if self.heap.is_empty() && self.heap.capacity() > Self::KEEP {
-            self.heap.shrink_to(Self::KEEP);
-        }
-        entry
-    }
-
-    /// Keeps only the entries `live` accepts (drops stale ones).
-    pub fn retain(&mut self, mut live: impl FnMut(Instant, ClientKey, u8) -> bool) {
-        self.heap.retain(|Reverse((due, key, stream))| live(*due, *key, *stream));
-    }
-
-    /// Entries held (live and stale).
-    pub fn len(&self) -> usize {
-        self.heap.len()
-    }
-
-    /// Whether no entry is held.
-    pub fn is_empty(&self) -> bool {
-        self.heap.is_empty()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -119,24 +63,5 @@ mod tests {
             assert_eq!(from_engine(reliable::Instant(-5000)), before);
         }
         assert_eq!(engine_duration(5 * MS), reliable::Duration::from_millis(5));
-        assert_eq!(PROBE_FLOOR, 2 * MS);
-    }
-
-    #[test]
-    fn timers_come_out_earliest_first_when_due() {
-        let t0 = Instant::now();
-        let mut t = ProbeTimers::default();
-        t.push(t0 + 3 * MS, ClientKey([0, 0, 0, 1]), 0x80);
-        t.push(t0 + MS, ClientKey([0, 0, 0, 2]), 0x80);
-        assert_eq!(t.next_due(), Some(t0 + MS));
-        assert_eq!(t.pop_due(t0), None);
-        assert_eq!(t.pop_due(t0 + 5 * MS).map(|e| e.1), Some(ClientKey([0, 0, 0, 2])));
-        assert_eq!(t.pop_due(t0 + 5 * MS).map(|e| e.1), Some(ClientKey([0, 0, 0, 1])));
-        assert!(t.is_empty());
-        for i in 0..10u8 {
-            t.push(t0 + u32::from(i) * MS, ClientKey([0, 0, 0, i]), 0x80);
-        }
-        t.retain(|_, key, _| key.0[3] % 2 == 0);
-        assert_eq!(t.len(), 5);
     }
 }

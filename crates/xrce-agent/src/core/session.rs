@@ -1,12 +1,9 @@
-//! A proxy client: the agent's view of one XRCE client — session, streams, objects, read tasks,
-//! liveliness (spec §10).
+//! Per-session state a [`Connection`](super::connection::Connection) is made of: its streams, why its
+//! readers stopped holding writers back, where a held message resumes, and the CREATE_CLIENT properties
+//! the agent reads.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use xrce_proto::{ClientKey, MessageHeader, ObjectId, StreamId};
-
-use super::object::ObjectTable;
-use super::read::ReadTask;
 use super::stream::{BestEffortIn, BestEffortOut, ReliableIn, ReliableOut};
 use super::vecmap::VecMap;
 
@@ -35,42 +32,17 @@ impl Streams {
     }
 }
 
-/// One client known to the agent.
-#[derive(Debug)]
-pub struct ProxyClient<E> {
-    /// Its key.
-    pub key: ClientKey,
-    /// Session id from CREATE_CLIENT.
-    pub session_id: u8,
-    /// Largest message the agent sends it.
-    pub mtu: usize,
-    /// Where replies go (the source of its latest message); unknown for a client created through the API
-    /// until it sends something.
-    pub endpoint: Option<E>,
-    /// Streams.
-    pub streams: Streams,
-    /// Objects.
-    pub objects: ObjectTable,
-    /// Active read tasks by reader/requester/replier id.
-    pub reads: VecMap<ObjectId, ReadTask>,
-    /// Last time anything came from it.
-    pub last_heard: Instant,
-    /// Dead time from `uxr_hl`: when present, a dead client is probed and removed.
-    pub hard_liveliness: Option<Duration>,
-    /// Probes sent since it went silent.
-    pub probes: u8,
-    /// Whether it asked for the shared-memory shortcut (`uxr_sm`); kept for the DDS middleware.
-    pub shared_memory: bool,
-    /// Several DATA submessages may share one message ([`PACK_PROPERTY`], or
-    /// [`CoreConfig::pack_data`](super::CoreConfig::pack_data)). Off for eProsima's C client, which does not
-    /// skip a DATA payload and so cannot read a second submessage after one.
-    pub pack_data: bool,
-    /// Its reliable readers stopped holding writers back (see [`Unpinned`]).
-    pub unpinned: Option<Unpinned>,
+/// Where the processing of a held reliable message resumes.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Resume {
+    /// Index of the submessage that could not run yet.
+    pub at: usize,
+    /// When that submessage was the last FRAGMENT of a message: the rebuilt message and where in it.
+    pub inner: Option<(Vec<u8>, usize)>,
 }
 
 /// Why a client's reliable readers no longer hold writers back (back-pressure, see
-/// [`Middleware::can_write`](crate::middleware::Middleware::can_write)).
+/// [`Middleware::write_credit`](crate::middleware::Middleware::write_credit)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Unpinned {
     /// Silent past its dead time; pinned again when heard from.
@@ -83,57 +55,6 @@ pub enum Unpinned {
 /// CREATE_CLIENT property a client sets to `1` when it reads every submessage of a message (eProsima's C
 /// client does not after a DATA): the agent then packs several samples per message.
 pub const PACK_PROPERTY: &str = "xrce_rs_pack";
-
-impl<E: Copy> ProxyClient<E> {
-    /// A fresh client.
-    pub fn new(key: ClientKey, session_id: u8, mtu: usize, endpoint: Option<E>, now: Instant) -> Self {
-        Self {
-            key,
-            session_id,
-            mtu,
-            endpoint,
-            streams: Streams::default(),
-            objects: ObjectTable::default(),
-            reads: VecMap::default(),
-            last_heard: now,
-            hard_liveliness: None,
-            probes: 0,
-            shared_memory: false,
-            pack_data: false,
-            unpinned: None,
-        }
-    }
-
-    /// Header of a message to this client on `stream` with `seq`.
-    pub fn header(&self, stream: StreamId, seq: u16) -> MessageHeader {
-        MessageHeader::new(self.session_id, stream, seq, self.key)
-    }
-
-    /// Largest message several submessages may be packed into: the MTU, or 0 (one submessage per message)
-    /// unless the client reads packed messages.
-    pub fn pack_mtu(&self) -> usize {
-        if self.pack_data {
-            self.mtu
-        } else {
-            0
-        }
-    }
-
-    /// Its dead time.
-    pub fn dead_time(&self, default: Duration) -> Duration {
-        self.hard_liveliness.unwrap_or(default)
-    }
-
-    /// Whether it has been silent longer than its dead time.
-    pub fn is_dead(&self, now: Instant, default: Duration) -> bool {
-        now.saturating_duration_since(self.last_heard) > self.dead_time(default)
-    }
-
-    /// Resets every stream (same-session CREATE_CLIENT, RESET).
-    pub fn reset_streams(&mut self) {
-        self.streams = Streams::default();
-    }
-}
 
 /// Parses the `uxr_hl` value: milliseconds as decimal digits.
 pub fn parse_hard_liveliness(value: &str) -> Option<Duration> {

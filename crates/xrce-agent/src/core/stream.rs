@@ -13,16 +13,6 @@ use xrce_proto::MessageHeader;
 use super::probe::{engine_duration, from_engine, to_engine};
 pub use crate::bufpool::BufPool;
 
-/// `a < b` in 16-bit serial arithmetic (spec §9.1).
-pub const fn seq_lt(a: u16, b: u16) -> bool {
-    SeqNum(a).lt(SeqNum(b))
-}
-
-/// `a <= b` in 16-bit serial arithmetic.
-pub const fn seq_le(a: u16, b: u16) -> bool {
-    SeqNum(a).le(SeqNum(b))
-}
-
 /// Best-effort input: newer messages only (spec §9.2).
 #[derive(Debug, Clone)]
 pub struct BestEffortIn {
@@ -307,11 +297,6 @@ impl ReliableOut {
     /// Bodies that can still be queued.
     pub fn room(&self) -> usize {
         self.max_pending.saturating_sub(self.pending.len())
-    }
-
-    /// Whether nothing waits behind the window (the time to take another sample for it).
-    pub fn is_idle(&self) -> bool {
-        self.pending.is_empty() && self.has_window_room()
     }
 
     /// Whether another message may go in flight.

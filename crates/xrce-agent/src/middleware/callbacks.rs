@@ -2,10 +2,11 @@
 //! decorator. Unlike eProsima, where only the participant callbacks fire, every kind listed fires.
 
 use std::sync::{Arc, RwLock};
+use std::time::Instant;
 
 use xrce_proto::{ClientKey, ObjectKind, RequestId, SampleIdentity};
 
-use super::{Creation, EntityRef, Middleware, MiddlewareError, Sample, Waker};
+use super::{Creation, EntityRef, Middleware, MiddlewareError, SampleVisitor, Waker, WriteOutcome};
 
 /// When a callback fires (eProsima's `middleware::CallbackKind`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -116,19 +117,26 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn delete_client(&mut self, client: ClientKey) {
         self.inner.delete_client(client);
     }
-    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
-        self.inner.write_data(writer, data)
+    fn write_data(&mut self, writer: EntityRef, data: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError> {
+        self.inner.write_data(writer, data, now)
     }
-    fn write_request(&mut self, requester: EntityRef, id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
-        self.inner.write_request(requester, id, data)
+    fn write_request(
+        &mut self,
+        requester: EntityRef,
+        id: RequestId,
+        data: &[u8],
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
+        self.inner.write_request(requester, id, data, now)
     }
     fn write_reply(
         &mut self,
         replier: EntityRef,
         identity: &SampleIdentity,
         data: &[u8],
-    ) -> Result<(), MiddlewareError> {
-        self.inner.write_reply(replier, identity, data)
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
+        self.inner.write_reply(replier, identity, data, now)
     }
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
         self.inner.start_reading(reader)
@@ -136,23 +144,17 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn stop_reading(&mut self, reader: EntityRef) {
         self.inner.stop_reading(reader);
     }
-    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
-        self.inner.next_sample_size(reader)
+    fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
+        self.inner.poll_sample(reader, visit)
     }
-    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
-        self.inner.take_sample(reader)
-    }
-    fn recycle_sample(&mut self, sample: Sample) {
-        self.inner.recycle_sample(sample);
-    }
-    fn poll(&mut self, now: std::time::Instant) {
+    fn poll(&mut self, now: Instant) {
         self.inner.poll(now);
     }
     fn set_waker(&mut self, waker: Waker) {
         self.inner.set_waker(waker);
     }
-    fn can_write(&mut self, writer: EntityRef) -> bool {
-        self.inner.can_write(writer)
+    fn write_credit(&mut self, writer: EntityRef, now: Instant) -> u32 {
+        self.inner.write_credit(writer, now)
     }
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
         self.inner.set_reader_reliable(reader, reliable);

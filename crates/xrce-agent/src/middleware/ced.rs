@@ -8,7 +8,7 @@
 //!
 //! **Back-pressure.** A datareader whose read task delivers on a reliable stream *pins* its topic: samples it
 //! has not taken are not overwritten by the ring. Past [`RELIABLE_BACKLOG`] samples not yet taken by the
-//! slowest pinning reader, [`Middleware::can_write`] answers false and the core stops consuming the
+//! slowest pinning reader, [`Middleware::write_credit`] answers 0 and the core stops consuming the
 //! publisher's reliable input stream, so the publisher's history fills and its writes block instead of
 //! samples being lost. Best-effort readers never pin (oldest samples are dropped). A single message may carry
 //! many writes and is always processed whole: the ring then grows up to [`MAX_BACKLOG`] samples, beyond which
@@ -22,6 +22,7 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
+use std::time::Instant;
 
 use xrce_proto::types::{Guid, SequenceNumber};
 use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
@@ -29,7 +30,7 @@ use xrce_proto::{ClientKey, ObjectId, ObjectKind, RequestId, SampleIdentity};
 use crate::bufpool::BufPool;
 
 use super::describe::{describe, Description, ProfileSource, TopicRef};
-use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample};
+use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, SampleRef, SampleVisitor, WriteOutcome};
 
 /// Spare sample buffers kept for reuse.
 const SAMPLE_BUFFERS_KEPT: usize = 1024;
@@ -406,7 +407,7 @@ impl Middleware for Ced {
         }
     }
 
-    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
+    fn write_data(&mut self, writer: EntityRef, data: &[u8], _now: Instant) -> Result<WriteOutcome, MiddlewareError> {
         let Entity::Writer { key } = self.entity_mut(writer)? else {
             return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
         };
@@ -424,7 +425,7 @@ impl Middleware for Ced {
                 );
             }
         }
-        Ok(())
+        Ok(WriteOutcome::Accepted)
     }
 
     fn write_request(
@@ -432,7 +433,8 @@ impl Middleware for Ced {
         requester: EntityRef,
         request_id: RequestId,
         data: &[u8],
-    ) -> Result<(), MiddlewareError> {
+        _now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
         let Entity::Requester { key, sent, .. } = self.entity_mut(requester)? else {
             return Err(MiddlewareError::Unsupported(format!("{requester:?} is not a requester")));
         };
@@ -443,7 +445,7 @@ impl Middleware for Ced {
         if let Some(ring) = self.services.get_mut(&key) {
             ring.push((identity, Arc::from(data)), capacity, None, drop);
         }
-        Ok(())
+        Ok(WriteOutcome::Accepted)
     }
 
     fn write_reply(
@@ -451,7 +453,8 @@ impl Middleware for Ced {
         replier: EntityRef,
         identity: &SampleIdentity,
         data: &[u8],
-    ) -> Result<(), MiddlewareError> {
+        _now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
         let Entity::Replier { key: service, .. } = self.entity_mut(replier)? else {
             return Err(MiddlewareError::Unsupported(format!("{replier:?} is not a replier")));
         };
@@ -467,7 +470,7 @@ impl Middleware for Ced {
             // The requester is gone, or the identity was not one of ours: the reply has nowhere to go.
             _ => tracing::debug!(?replier, ?requester, "CED: reply for an unknown requester dropped"),
         }
-        Ok(())
+        Ok(WriteOutcome::Accepted)
     }
 
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
@@ -482,11 +485,12 @@ impl Middleware for Ced {
         self.unpin(reader);
     }
 
-    fn can_write(&mut self, writer: EntityRef) -> bool {
-        let Some(Entity::Writer { key }) = self.entities.get(&writer) else { return true };
-        let Some(pin) = self.pin(key) else { return true };
+    fn write_credit(&mut self, writer: EntityRef, _now: Instant) -> u32 {
+        let Some(Entity::Writer { key }) = self.entities.get(&writer) else { return u32::MAX };
+        let Some(pin) = self.pin(key) else { return u32::MAX };
         let next = self.topics.get(key).map_or(0, |r| r.next_seq);
-        next.saturating_sub(pin) < RELIABLE_BACKLOG as u64
+        let backlog = next.saturating_sub(pin);
+        u32::try_from((RELIABLE_BACKLOG as u64).saturating_sub(backlog)).unwrap_or(u32::MAX)
     }
 
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
@@ -501,40 +505,33 @@ impl Middleware for Ced {
         }
     }
 
-    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
-        match self.entities.get(&reader)? {
-            Entity::Reader { key, cursor } => self.topics.get(key)?.at_or_after(*cursor).map(|(_, d)| d.len()),
-            Entity::Replier { key, cursor } => {
-                self.services.get(key)?.at_or_after(*cursor).map(|(_, (_, d))| SampleIdentity::SIZE + d.len())
-            }
-            Entity::Requester { replies, .. } => replies.front().map(|(_, d)| 4 + d.len()),
-            _ => None,
-        }
-    }
-
-    fn recycle_sample(&mut self, sample: Sample) {
-        if let Sample::Data(buf) = sample {
-            self.spare.put(buf);
-        }
-    }
-
-    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
+    fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
         let topics = &self.topics;
         let services = &self.services;
-        let spare = &mut self.spare;
         match self.entities.get_mut(&reader)? {
             Entity::Reader { key, cursor } => {
                 let (seq, data) = topics.get(key)?.at_or_after(*cursor)?;
-                *cursor = seq + 1;
-                Some(Sample::Data(spare.copy_fitted(data)))
+                let taken = visit(SampleRef::Data(data));
+                if taken {
+                    *cursor = seq + 1;
+                }
+                Some(taken)
             }
             Entity::Replier { key, cursor } => {
                 let (seq, (identity, data)) = services.get(key)?.at_or_after(*cursor)?;
-                *cursor = seq + 1;
-                Some(Sample::Request { identity: *identity, data: data.to_vec() })
+                let taken = visit(SampleRef::Request { identity: *identity, data });
+                if taken {
+                    *cursor = seq + 1;
+                }
+                Some(taken)
             }
             Entity::Requester { replies, .. } => {
-                replies.pop_front().map(|(request_id, data)| Sample::Reply { request_id, data })
+                let (request_id, data) = replies.front()?;
+                let taken = visit(SampleRef::Reply { request_id: *request_id, data });
+                if taken {
+                    replies.pop_front();
+                }
+                Some(taken)
             }
             _ => None,
         }
@@ -561,12 +558,12 @@ mod tests {
     use xrce_proto::{Endianness, EntityVariant};
 
     fn create(ced: &mut Ced, entity: EntityRef, parent: Option<EntityRef>, variant: &EntityVariant<'_>) {
-        let creation = Creation { entity, parent, variant, endian: Endianness::Little };
+        let creation = Creation { entity, parent, variant, endian: Endianness::Little, now: Instant::now() };
         ced.create(&creation).expect("create");
     }
 
-    #[test]
-    fn sample_buffers_are_reused_once_warm() {
+    /// A CED with one client holding a datawriter and a datareader on one topic.
+    fn writer_and_reader() -> (Ced, EntityRef, EntityRef) {
         let mut ced = Ced::new(Arc::new(FallbackProfiles));
         let client = ClientKey([1, 2, 3, 4]);
         let e = |id: u16, kind: ObjectKind| EntityRef::new(client, ObjectId::new(id, kind));
@@ -584,12 +581,20 @@ mod tests {
         create(&mut ced, w, Some(pu), &EntityVariant::child(ObjectKind::DataWriter, Representation::Binary(wb), pu.id));
         let rb = BinaryObject::DataReader(DataReaderBinary { topic_id: t.id, qos: None });
         create(&mut ced, r, Some(su), &EntityVariant::child(ObjectKind::DataReader, Representation::Binary(rb), su.id));
-        // Writes and takes, every taken sample given back as the core does.
+        (ced, w, r)
+    }
+
+    #[test]
+    fn sample_buffers_are_reused_once_warm() {
+        let (mut ced, w, r) = writer_and_reader();
+        // Writes, and samples lent to the core's visitor as it polls them: the ring's buffers are reused.
         let cycle = |ced: &mut Ced, round: usize| {
-            ced.write_data(w, &[round as u8; 24]).expect("write");
-            let Some(Sample::Data(d)) = ced.take_sample(r) else { panic!("a sample") };
-            assert_eq!(d, [round as u8; 24]);
-            ced.recycle_sample(Sample::Data(d));
+            assert_eq!(ced.write_data(w, &[round as u8; 24], Instant::now()), Ok(WriteOutcome::Accepted));
+            let seen = ced.poll_sample(r, &mut |s| {
+                assert_eq!(s, SampleRef::Data(&[round as u8; 24]));
+                true
+            });
+            assert_eq!(seen, Some(true), "a sample");
         };
         for round in 0..2 * DEFAULT_RING_SIZE {
             cycle(&mut ced, round);
@@ -600,5 +605,17 @@ mod tests {
             cycle(&mut ced, round);
         }
         assert_eq!(ced.sample_buffers_created(), warm, "no buffer created per sample once warm");
+    }
+
+    #[test]
+    fn a_sample_the_visitor_leaves_is_lent_again() {
+        let (mut ced, w, r) = writer_and_reader();
+        for v in [1u8, 2] {
+            assert_eq!(ced.write_data(w, &[v], Instant::now()), Ok(WriteOutcome::Accepted));
+        }
+        assert_eq!(ced.poll_sample(r, &mut |_| false), Some(false), "left in place");
+        assert_eq!(ced.take_sample(r), Some(crate::middleware::Sample::Data(vec![1])), "the same sample again");
+        assert_eq!(ced.take_sample(r), Some(crate::middleware::Sample::Data(vec![2])));
+        assert_eq!(ced.poll_sample(r, &mut |_| true), None, "no more");
     }
 }

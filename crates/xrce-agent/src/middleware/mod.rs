@@ -5,7 +5,9 @@
 //! and replies, and to take samples for readers that have an active read task. A middleware whose data
 //! arrives on its own threads (DDS) keeps it in bounded per-reader queues and calls the [`Waker`] it was given
 //! so the transport shell runs the core, which then polls the readers with active read tasks
-//! ([`Middleware::next_sample_size`] / [`Middleware::take_sample`]). CED needs no waker: samples appear only
+//! ([`Middleware::poll_sample`], a visitor that copies each sample once into the outgoing message). No
+//! method blocks or reads the clock: a write the middleware cannot take now returns
+//! [`WriteOutcome::WouldBlock`] and the core retries it. CED needs no waker: samples appear only
 //! through writes the core itself performs, after which it polls the readers anyway.
 
 pub mod callbacks;
@@ -61,6 +63,8 @@ pub struct Creation<'a> {
     pub variant: &'a EntityVariant<'a>,
     /// Byte order of binary blobs (the E flag of the CREATE).
     pub endian: Endianness,
+    /// When the CREATE was handled.
+    pub now: Instant,
 }
 
 /// How many entities each client holds in a middleware's registry, so deleting a client whose entities are
@@ -124,7 +128,8 @@ impl MiddlewareError {
     }
 }
 
-/// A sample taken for a read task, shaped by the kind of the reading entity (spec §6.8).
+/// A sample taken for a read task, shaped by the kind of the reading entity (spec §6.8), owned (tests and
+/// [`Middleware::take_sample`]); the core sees samples borrowed, as [`SampleRef`].
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Sample {
     /// For a datareader: the serialized sample.
@@ -148,18 +153,80 @@ pub enum Sample {
 impl Sample {
     /// Bytes the sample takes in a DATA payload after the read's `BaseObjectRequest`.
     pub fn wire_size(&self) -> usize {
+        self.as_ref().wire_size()
+    }
+
+    /// The sample, borrowed.
+    pub fn as_ref(&self) -> SampleRef<'_> {
+        match self {
+            Self::Data(d) => SampleRef::Data(d),
+            Self::Request { identity, data } => SampleRef::Request { identity: *identity, data },
+            Self::Reply { request_id, data } => SampleRef::Reply { request_id: *request_id, data },
+        }
+    }
+}
+
+/// A sample as the middleware holds it, lent to the core's visitor ([`Middleware::poll_sample`]), which
+/// copies it once, straight into the outgoing message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SampleRef<'a> {
+    /// For a datareader: the serialized sample.
+    Data(&'a [u8]),
+    /// For a replier: a request and the identity the reply must carry.
+    Request {
+        /// Identity of the request.
+        identity: SampleIdentity,
+        /// Request bytes.
+        data: &'a [u8],
+    },
+    /// For a requester: a reply to the request that was written with `request_id`.
+    Reply {
+        /// Request id of the WRITE_DATA that carried the request.
+        request_id: RequestId,
+        /// Reply bytes.
+        data: &'a [u8],
+    },
+}
+
+impl SampleRef<'_> {
+    /// Bytes the sample takes in a DATA payload after the read's `BaseObjectRequest`.
+    pub fn wire_size(&self) -> usize {
         match self {
             Self::Data(d) => d.len(),
             Self::Request { data, .. } => SampleIdentity::SIZE + data.len(),
             Self::Reply { data, .. } => 4 + data.len(),
         }
     }
+
+    /// An owned copy.
+    pub fn to_owned(&self) -> Sample {
+        match *self {
+            Self::Data(d) => Sample::Data(d.to_vec()),
+            Self::Request { identity, data } => Sample::Request { identity, data: data.to_vec() },
+            Self::Reply { request_id, data } => Sample::Reply { request_id, data: data.to_vec() },
+        }
+    }
+}
+
+/// What became of a write. A middleware never blocks the core: when it cannot take a sample now it says
+/// so, the core keeps the client's message (unacknowledged, on a reliable stream) and retries after the
+/// middleware's next poll, which the middleware asks for through its [`Waker`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[must_use]
+pub enum WriteOutcome {
+    /// The sample was taken.
+    Accepted,
+    /// No room now (a full DDS history); nothing was written.
+    WouldBlock,
 }
 
 /// Wakes the transport shell when a middleware has new samples on its own (threaded middlewares).
 pub type Waker = Arc<dyn Fn() + Send + Sync>;
 
-/// What the agent core needs from a middleware.
+/// The visitor [`Middleware::poll_sample`] lends a sample to; it returns whether it took the sample.
+pub type SampleVisitor<'v> = dyn FnMut(SampleRef<'_>) -> bool + 'v;
+
+/// What the agent core needs from a middleware. No method blocks or reads the clock: `now` is passed in.
 pub trait Middleware {
     /// Creates an entity. The core has already applied the creation mode (spec §11) and checked the parent.
     fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError>;
@@ -174,15 +241,16 @@ pub trait Middleware {
     fn delete_client(&mut self, _client: ClientKey) {}
 
     /// Publishes a sample through a datawriter.
-    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError>;
+    fn write_data(&mut self, writer: EntityRef, data: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError>;
 
-    /// Sends a request through a requester; replies come back as [`Sample::Reply`] with `request_id`.
+    /// Sends a request through a requester; replies come back as [`SampleRef::Reply`] with `request_id`.
     fn write_request(
         &mut self,
         requester: EntityRef,
         request_id: RequestId,
         data: &[u8],
-    ) -> Result<(), MiddlewareError>;
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError>;
 
     /// Sends a reply through a replier to the request identified by `identity`.
     fn write_reply(
@@ -190,7 +258,8 @@ pub trait Middleware {
         replier: EntityRef,
         identity: &SampleIdentity,
         data: &[u8],
-    ) -> Result<(), MiddlewareError>;
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError>;
 
     /// A read task starts on a datareader, requester or replier.
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError>;
@@ -198,15 +267,19 @@ pub trait Middleware {
     /// The read task of `reader` ended (cancelled, finished, entity deleted).
     fn stop_reading(&mut self, _reader: EntityRef) {}
 
-    /// Size ([`Sample::wire_size`]) of the next sample `reader` would take, without taking it.
-    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize>;
+    /// Lends the next sample of `reader` to `visit`, which copies it out and returns true, or returns false
+    /// to leave it for later (it does not fit the message or the read's pace yet). `None`: no sample.
+    fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool>;
 
-    /// Takes the next sample for `reader`.
-    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample>;
-
-    /// Gives back a sample [`Self::take_sample`] returned, once the core has copied it into a message, so
-    /// its buffer can carry the next one (CED: no allocation per sample once warm). Optional.
-    fn recycle_sample(&mut self, _sample: Sample) {}
+    /// Takes the next sample of `reader`, copied (tests, tools; the core uses [`Self::poll_sample`]).
+    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
+        let mut taken = None;
+        self.poll_sample(reader, &mut |s| {
+            taken = Some(s.to_owned());
+            true
+        });
+        taken
+    }
 
     /// Runs the middleware's own pending work (the DDS middleware: best-effort samples held at a
     /// first-contact gate); the core calls it when the waker fired and on its timers. Default: nothing.
@@ -215,17 +288,19 @@ pub trait Middleware {
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
 
-    /// Back-pressure for reliable writers: whether `writer` (a datawriter or a requester) may publish now
-    /// without making the middleware drop a sample that a reliable reader has not taken yet, or that a
-    /// reader it is about to match would miss (DDS: the first-contact gate of a new writer). When false the core leaves the client's
-    /// reliable message unprocessed (held in its input window, unacknowledged) and retries after deliveries,
-    /// so the client's own history fills and its writes block. Default: always.
-    fn can_write(&mut self, _writer: EntityRef) -> bool {
-        true
+    /// Back-pressure for reliable writers, as one number: how many samples `writer` (a datawriter, requester
+    /// or replier) may publish now without making the middleware drop a sample that a reliable reader has
+    /// not taken yet, or that a reader it is about to match would miss (DDS: the first-contact gate of a new
+    /// writer). At 0 the core leaves the client's reliable message unprocessed (held in its input window,
+    /// unacknowledged) and retries after deliveries or the middleware's next poll, so the client's own
+    /// history fills and its writes block. Default: unlimited.
+    fn write_credit(&mut self, _writer: EntityRef, _now: Instant) -> u32 {
+        u32::MAX
     }
 
     /// The read task of `reader` delivers on a reliable stream (`true`, from its start) or ended / is best
-    /// effort (`false`): samples a reliable reader has not taken should be kept (see [`Self::can_write`]).
+    /// effort / its client stopped acknowledging (`false`): what a reliable reader has not taken should be
+    /// kept, and counts against the credit of its topic's writers ([`Self::write_credit`]).
     fn set_reader_reliable(&mut self, _reader: EntityRef, _reliable: bool) {}
 }
 
@@ -242,19 +317,26 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     fn delete_client(&mut self, client: ClientKey) {
         (**self).delete_client(client);
     }
-    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
-        (**self).write_data(writer, data)
+    fn write_data(&mut self, writer: EntityRef, data: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError> {
+        (**self).write_data(writer, data, now)
     }
-    fn write_request(&mut self, requester: EntityRef, id: RequestId, data: &[u8]) -> Result<(), MiddlewareError> {
-        (**self).write_request(requester, id, data)
+    fn write_request(
+        &mut self,
+        requester: EntityRef,
+        id: RequestId,
+        data: &[u8],
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
+        (**self).write_request(requester, id, data, now)
     }
     fn write_reply(
         &mut self,
         replier: EntityRef,
         identity: &SampleIdentity,
         data: &[u8],
-    ) -> Result<(), MiddlewareError> {
-        (**self).write_reply(replier, identity, data)
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
+        (**self).write_reply(replier, identity, data, now)
     }
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
         (**self).start_reading(reader)
@@ -262,14 +344,8 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     fn stop_reading(&mut self, reader: EntityRef) {
         (**self).stop_reading(reader);
     }
-    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
-        (**self).next_sample_size(reader)
-    }
-    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
-        (**self).take_sample(reader)
-    }
-    fn recycle_sample(&mut self, sample: Sample) {
-        (**self).recycle_sample(sample);
+    fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
+        (**self).poll_sample(reader, visit)
     }
     fn poll(&mut self, now: Instant) {
         (**self).poll(now);
@@ -277,8 +353,8 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     fn set_waker(&mut self, waker: Waker) {
         (**self).set_waker(waker);
     }
-    fn can_write(&mut self, writer: EntityRef) -> bool {
-        (**self).can_write(writer)
+    fn write_credit(&mut self, writer: EntityRef, now: Instant) -> u32 {
+        (**self).write_credit(writer, now)
     }
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
         (**self).set_reader_reliable(reader, reliable);

@@ -152,7 +152,7 @@ mod tests {
     use super::*;
     use crate::middleware::ced::Ced;
     use crate::middleware::describe::FallbackProfiles;
-    use crate::middleware::{Creation, EntityRef, MiddlewareError, Sample};
+    use crate::middleware::{Creation, EntityRef, MiddlewareError, SampleVisitor, WriteOutcome};
     use xrce_proto::{RequestId, SampleIdentity};
 
     /// CED that hands its waker to the test.
@@ -171,23 +171,32 @@ mod tests {
         fn delete(&mut self, e: EntityRef) -> Result<(), MiddlewareError> {
             self.inner.delete(e)
         }
-        fn write_data(&mut self, w: EntityRef, d: &[u8]) -> Result<(), MiddlewareError> {
-            self.inner.write_data(w, d)
+        fn write_data(&mut self, w: EntityRef, d: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError> {
+            self.inner.write_data(w, d, now)
         }
-        fn write_request(&mut self, r: EntityRef, id: RequestId, d: &[u8]) -> Result<(), MiddlewareError> {
-            self.inner.write_request(r, id, d)
+        fn write_request(
+            &mut self,
+            r: EntityRef,
+            id: RequestId,
+            d: &[u8],
+            now: Instant,
+        ) -> Result<WriteOutcome, MiddlewareError> {
+            self.inner.write_request(r, id, d, now)
         }
-        fn write_reply(&mut self, r: EntityRef, i: &SampleIdentity, d: &[u8]) -> Result<(), MiddlewareError> {
-            self.inner.write_reply(r, i, d)
+        fn write_reply(
+            &mut self,
+            r: EntityRef,
+            i: &SampleIdentity,
+            d: &[u8],
+            now: Instant,
+        ) -> Result<WriteOutcome, MiddlewareError> {
+            self.inner.write_reply(r, i, d, now)
         }
         fn start_reading(&mut self, r: EntityRef) -> Result<(), MiddlewareError> {
             self.inner.start_reading(r)
         }
-        fn next_sample_size(&mut self, r: EntityRef) -> Option<usize> {
-            self.inner.next_sample_size(r)
-        }
-        fn take_sample(&mut self, r: EntityRef) -> Option<Sample> {
-            self.inner.take_sample(r)
+        fn poll_sample(&mut self, r: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
+            self.inner.poll_sample(r, visit)
         }
         fn set_waker(&mut self, waker: Waker) {
             *self.waker.lock().unwrap() = Some(waker);

@@ -130,8 +130,8 @@ pub fn new_core_with(config: CoreConfig) -> TestCore {
 
 /// Drives a core as well-behaved clients would: acknowledges the agent's reliable messages (unless told not
 /// to), reassembles fragments, and records what each client receives in order.
-pub struct Harness {
-    pub core: TestCore,
+pub struct Harness<M = Ced> {
+    pub core: AgentCore<u16, M>,
     pub now: Instant,
     pub auto_ack: bool,
     streams: HashMap<(u16, u8), SimStream>,
@@ -144,8 +144,10 @@ impl Harness {
     pub fn new() -> Self {
         Self::with_core(new_core())
     }
+}
 
-    pub fn with_core(core: TestCore) -> Self {
+impl<M: xrce_agent::middleware::Middleware> Harness<M> {
+    pub fn with_core(core: AgentCore<u16, M>) -> Self {
         Self { core, now: Instant::now(), auto_ack: true, streams: HashMap::new(), received: HashMap::new() }
     }
 
@@ -367,6 +369,38 @@ impl Client {
         let n = message::encode_single(&mut buf, &header, sub, xrce_proto::Endianness::Little).expect("encode");
         buf.truncate(n);
         buf
+    }
+
+    /// One message carrying several submessages.
+    pub fn encode_many(&mut self, reliable: bool, subs: &[Submessage<'_>]) -> Vec<u8> {
+        let header = self.header(reliable);
+        let mut buf = vec![0u8; 70_000];
+        let mut m = message::MessageBuilder::new(&mut buf, &header).expect("header");
+        for sub in subs {
+            m.push(sub, xrce_proto::Endianness::Little).expect("submessage");
+        }
+        let n = m.len();
+        buf.truncate(n);
+        buf
+    }
+
+    /// A WRITE_DATA to `object` cut into `parts` FRAGMENT messages on the reliable stream.
+    pub fn write_fragmented(&mut self, object: ObjectId, data: &[u8], parts: usize) -> Vec<Vec<u8>> {
+        let mut request = self.next_request();
+        request.object_id = object;
+        let whole = Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data });
+        let mut buf = vec![0u8; 70_000];
+        let header = MessageHeader::new(self.session, StreamId(0x80), 0, xrce_proto::ClientKey::from_u32(self.key));
+        let n = message::encode_single(&mut buf, &header, &whole, xrce_proto::Endianness::Little).expect("encode");
+        let body = &buf[header.size()..n];
+        let chunk = body.len().div_ceil(parts);
+        let pieces: Vec<&[u8]> = body.chunks(chunk).collect();
+        let last = pieces.len() - 1;
+        pieces
+            .iter()
+            .enumerate()
+            .map(|(i, piece)| self.encode(true, &Submessage::Fragment { last: i == last, data: piece }))
+            .collect()
     }
 
     pub fn create(&mut self, id: ObjectId, variant: EntityVariant<'_>) -> Vec<u8> {

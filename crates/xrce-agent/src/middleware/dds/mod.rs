@@ -37,7 +37,7 @@
 //!   replier of the same agent through DDS.
 //! * **Delivery**: readers fill bounded queues on the bridge's dispatcher thread, which calls the
 //!   [`Waker`] installed with [`Middleware::set_waker`]; the core takes samples one by one
-//!   ([`Middleware::next_sample_size`], [`Middleware::take_sample`]) under its READ_DATA delivery control,
+//!   ([`Middleware::poll_sample`], which lends each sample to the core's visitor) under its READ_DATA delivery control,
 //!   from a small local buffer refilled [`TAKE_BATCH`] samples at a time (one queue lock per batch).
 //! * **Back-pressure** (no silent loss on reliable topics, issue 5). RustDDS acknowledges a sample as soon
 //!   as it is in its reader's topic cache and evicts the oldest cached samples past the cache's resource
@@ -46,19 +46,20 @@
 //!   read task delivers on a reliable stream is *pinned* ([`Middleware::set_reader_reliable`]); it stays
 //!   pinned between read tasks (a subscriber reading with a small `max_samples` must not lose what arrives
 //!   meanwhile) until a best-effort read, its deletion, or the core unpinning a dead client's readers. For
-//!   a datawriter, [`Middleware::can_write`] is false while a pinned reader of the same topic and domain (in
+//!   a datawriter, [`Middleware::write_credit`] is 0 while a pinned reader of the same topic and domain (in
 //!   any of the agent's DDS participants) has [`RELIABLE_BACKLOG`] samples or more (at most half its queue) not yet taken by the core:
 //!   those queued, plus those of this writer still in flight towards the queue (last sequence number
 //!   written minus the last one the queue received; ignored once the queue has received nothing from the
 //!   writer for [`IN_FLIGHT_STALL`], so a reader that never matches cannot stall the writer forever). The
 //!   core then holds the publisher's reliable stream, whose history fills, and its writes block. Not
-//!   covered: remote DDS readers (RustDDS blocks the write on its own send window, [`WRITE_RETRIES`]) and
-//!   remote DDS writers to a stalled XRCE reader (RustDDS has acknowledged those samples already).
+//!   covered by the credit: remote DDS readers (the engine refuses the write when its history is full: the
+//!   write is [`WriteOutcome::WouldBlock`], never a wait, [`WOULD_BLOCK_RETRY`]) and remote DDS writers to
+//!   a stalled XRCE reader (the engine has acknowledged those samples already).
 //! * **First contact** (issue 11). A new DDS writer reaches the readers its participant already knows only
 //!   once the engine has matched them, some 20–35 ms after its creation; a volatile writer does not owe a
 //!   reader the samples written before it matched it, so the first samples of a client writing right
 //!   after STATUS OK were lost at readers (a ROS node) that had matched the writer first. Each new
-//!   datawriter and requester is therefore *gated*: [`Middleware::can_write`] is false while its DDS writer
+//!   datawriter and requester is therefore *gated*: [`Middleware::write_credit`] is 0 while its DDS writer
 //!   has not matched every remote reader of its topic that the participant has discovered with a
 //!   compatible QoS, for [`FIRST_CONTACT_GATE`] at most; the core keeps the client's reliable message and
 //!   retries it when a small timer thread wakes it ([`GATE_RECHECK`], only while a write is held). Readers
@@ -95,7 +96,9 @@ use xrce_proto::{ClientKey, ObjectKind, RequestId, SampleIdentity};
 
 use super::describe::ProfileSource;
 use super::ros_graph::{RosGraph, RosGraphMode};
-use super::{Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, Sample, Waker};
+use super::{
+    Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, SampleRef, SampleVisitor, Waker, WriteOutcome,
+};
 use crate::profile::{self};
 
 mod gate;
@@ -104,13 +107,14 @@ mod spec;
 use gate::{GateTimer, HeldSamples};
 use spec::{spec_from_binary, spec_from_description, spec_from_profile, Spec, TopicSel};
 
-/// How many times a reliable write is retried when the DDS writer's send window stays full for its
-/// `max_blocking_time` (100 ms by default), before the sample is dropped with a warning. The core thread
-/// blocks meanwhile: that is the back-pressure an XRCE client on a reliable stream feels.
-pub const WRITE_RETRIES: u32 = 20;
+/// How long a write that found its DDS writer's history full waits before the core is woken to retry it.
+/// The agent's DDS writers never block (`max_blocking_time` 0, see `non_blocking`): the write returns
+/// [`WriteOutcome::WouldBlock`], the core keeps the client's reliable message unacknowledged, and the gate
+/// timer wakes it every [`GATE_RECHECK`] until this has passed since the last refusal.
+pub const WOULD_BLOCK_RETRY: Duration = Duration::from_millis(50);
 
 /// Samples a pinned (reliable) local datareader may have waiting — queued for the core plus in flight from
-/// the writer — before the writers of its topic are held back ([`Middleware::can_write`]). Half the reader's
+/// the writer — before the writers of its topic are held back ([`Middleware::write_credit`]). Half the reader's
 /// queue if that is less. Well below RustDDS' smallest topic cache (1,024 samples, which also holds
 /// already-taken samples) and its writers' send window, and large enough that a fast subscriber never
 /// waits for a publisher: 256 × 16-byte samples are ~4 ms of traffic at 60k samples/s.
@@ -284,6 +288,12 @@ impl std::fmt::Debug for Dds {
     }
 }
 
+/// `qos` for a writer the core calls: a full history refuses the write at once instead of blocking the core
+/// for `max_blocking_time` (the core retries; see [`WOULD_BLOCK_RETRY`]).
+fn non_blocking(qos: &DdsQos) -> DdsQos {
+    DdsQos { max_blocking_time: Duration::ZERO, ..qos.clone() }
+}
+
 fn invalid(msg: impl Into<String>) -> MiddlewareError {
     MiddlewareError::InvalidDescription(msg.into())
 }
@@ -404,32 +414,39 @@ impl Dds {
         self
     }
 
-    /// Publishes through the DDS writer, retrying while its history is full (see [`WRITE_RETRIES`]).
-    fn write_now(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
+    /// Publishes through the DDS writer; a full history is [`WriteOutcome::WouldBlock`] (see
+    /// [`WOULD_BLOCK_RETRY`]).
+    fn write_now(&mut self, writer: EntityRef, data: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError> {
         let node = self.entities.get_mut(&writer).ok_or_else(|| unknown(writer))?;
         let Handle::Writer(state) = &mut node.handle else {
             return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
         };
         let WriterState { writer: w, written, .. } = &mut **state;
-        let mut tries = 0;
-        loop {
-            match w.write(data) {
-                Ok(id) => {
-                    let seq = id.sequence_number;
-                    match written {
-                        Some(wr) => wr.last_seq = wr.last_seq.max(seq),
-                        None => *written = Some(Written { first_seq: seq, first_at: Instant::now(), last_seq: seq }),
-                    }
-                    return Ok(());
+        match w.write(data) {
+            Ok(id) => {
+                let seq = id.sequence_number;
+                match written {
+                    Some(wr) => wr.last_seq = wr.last_seq.max(seq),
+                    None => *written = Some(Written { first_seq: seq, first_at: now, last_seq: seq }),
                 }
-                Err(DdsError::Resources(m)) if tries < WRITE_RETRIES => {
-                    tries += 1;
-                    tracing::debug!(?writer, "DDS write blocked ({m}), retrying");
-                }
-                Err(e) => {
-                    tracing::warn!(?writer, "DDS write failed, sample dropped: {e}");
-                    return Err(dds_error(e));
-                }
+                Ok(WriteOutcome::Accepted)
+            }
+            Err(e) => self.refused(writer, e, now),
+        }
+    }
+
+    /// A write the engine refused: a full history asks the core to retry (and wakes it for that), anything
+    /// else is an error.
+    fn refused(&mut self, entity: EntityRef, e: DdsError, now: Instant) -> Result<WriteOutcome, MiddlewareError> {
+        match e {
+            DdsError::Resources(m) => {
+                tracing::debug!(?entity, "DDS write would block ({m}); the core retries");
+                self.gate_timer.arm(now + WOULD_BLOCK_RETRY, self.waker.as_ref());
+                Ok(WriteOutcome::WouldBlock)
+            }
+            e => {
+                tracing::warn!(?entity, "DDS write failed, sample dropped: {e}");
+                Err(dds_error(e))
             }
         }
     }
@@ -439,7 +456,8 @@ impl Dds {
     fn replay_held(&mut self, writer: EntityRef, now: Instant) {
         let Some(mut held) = self.held.remove(&writer) else { return };
         while let Some(sample) = held.pop_due(now) {
-            let _ = self.write_now(writer, &sample);
+            // Best-effort samples: one the history cannot take now is dropped, as a best-effort write would be.
+            let _ = self.write_now(writer, &sample, now);
         }
         if held.is_empty() {
             if held.dropped() > 0 {
@@ -460,7 +478,7 @@ impl Dds {
     /// Whether `entity` (a datawriter, requester or replier) may write as far as its first-contact gate goes;
     /// opens (forgets) the gate once its DDS writer matched every reader known on its topic, or at its
     /// deadline.
-    fn gate_open(&mut self, entity: EntityRef) -> bool {
+    fn gate_open(&mut self, entity: EntityRef, now: Instant) -> bool {
         let Some(&deadline) = self.gates.get(&entity) else { return true };
         let unmatched = match self.entities.get(&entity).map(|n| &n.handle) {
             Some(Handle::Writer(w)) => w.writer.unmatched_known_readers() + w.writer.participant_in_discovery(),
@@ -468,7 +486,6 @@ impl Dds {
             Some(Handle::Replier(r)) => r.unmatched_known_requesters(),
             _ => 0,
         };
-        let now = Instant::now();
         if unmatched > 0 && now < deadline {
             self.gate_timer.arm(deadline, self.waker.as_ref());
             return false;
@@ -702,7 +719,7 @@ impl Dds {
             (ObjectKind::DataWriter, Spec::Endpoint { topic, qos }) => {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
-                let qos = &self.with_group_partitions(parent, qos);
+                let qos = &non_blocking(&self.with_group_partitions(parent, qos));
                 let topic = (p.key().domain_id, t.name());
                 Handle::Writer(Box::new(WriterState {
                     writer: p.shared_writer(&t, qos).map_err(dds_error)?,
@@ -719,11 +736,11 @@ impl Dds {
             }
             (ObjectKind::Requester, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
-                Handle::Requester(Box::new(Requester::new(&p, desc, qos).map_err(dds_error)?))
+                Handle::Requester(Box::new(Requester::new(&p, desc, &non_blocking(qos)).map_err(dds_error)?))
             }
             (ObjectKind::Replier, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
-                Handle::Replier(Box::new(Replier::new(&p, desc, qos).map_err(dds_error)?))
+                Handle::Replier(Box::new(Replier::new(&p, desc, &non_blocking(qos)).map_err(dds_error)?))
             }
             (kind, s) => return Err(invalid(format!("{kind:?} cannot be described as {s:?}"))),
         })
@@ -741,9 +758,9 @@ impl Middleware for Dds {
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
         if matches!(node.handle, Handle::Writer(_) | Handle::Replier(_)) {
-            self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE);
+            self.gates.insert(creation.entity, creation.now + FIRST_CONTACT_GATE);
         } else if matches!(node.handle, Handle::Requester(_)) {
-            self.gates.insert(creation.entity, Instant::now() + FIRST_CONTACT_GATE_REQUESTER);
+            self.gates.insert(creation.entity, creation.now + FIRST_CONTACT_GATE_REQUESTER);
         } else {
             self.gates.remove(&creation.entity);
         }
@@ -797,18 +814,17 @@ impl Middleware for Dds {
         self.entities.retain(|e, _| e.client != client);
     }
 
-    fn write_data(&mut self, writer: EntityRef, data: &[u8]) -> Result<(), MiddlewareError> {
-        // Only best-effort writes reach a closed gate: the core holds reliable ones (`can_write`).
-        let closed = self.gates.contains_key(&writer) && !self.gate_open(writer);
+    fn write_data(&mut self, writer: EntityRef, data: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError> {
+        // Only best-effort writes reach a closed gate: the core holds reliable ones (`write_credit`).
+        let closed = self.gates.contains_key(&writer) && !self.gate_open(writer, now);
         if closed || self.held.contains_key(&writer) {
-            let now = Instant::now();
             self.held.entry(writer).or_default().push(now, data);
             if !closed {
                 self.replay_held(writer, now);
             }
-            return Ok(());
+            return Ok(WriteOutcome::Accepted);
         }
-        self.write_now(writer, data)
+        self.write_now(writer, data, now)
     }
 
     fn poll(&mut self, now: Instant) {
@@ -817,7 +833,7 @@ impl Middleware for Dds {
         }
         let writers: Vec<EntityRef> = self.held.keys().copied().collect();
         for w in writers {
-            if self.gate_open(w) {
+            if self.gate_open(w, now) {
                 self.replay_held(w, now);
             }
         }
@@ -828,12 +844,16 @@ impl Middleware for Dds {
         requester: EntityRef,
         request_id: RequestId,
         data: &[u8],
-    ) -> Result<(), MiddlewareError> {
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
         let node = self.node(requester)?;
         let Handle::Requester(r) = &node.handle else {
             return Err(MiddlewareError::Unsupported(format!("{requester:?} is not a requester")));
         };
-        r.write_request(u32::from(request_id.0), data).map(drop).map_err(dds_error)
+        match r.write_request(u32::from(request_id.0), data) {
+            Ok(_) => Ok(WriteOutcome::Accepted),
+            Err(e) => self.refused(requester, e, now),
+        }
     }
 
     fn write_reply(
@@ -841,12 +861,16 @@ impl Middleware for Dds {
         replier: EntityRef,
         identity: &SampleIdentity,
         data: &[u8],
-    ) -> Result<(), MiddlewareError> {
+        now: Instant,
+    ) -> Result<WriteOutcome, MiddlewareError> {
         let node = self.node(replier)?;
         let Handle::Replier(r) = &node.handle else {
             return Err(MiddlewareError::Unsupported(format!("{replier:?} is not a replier")));
         };
-        r.write_reply(&identity_to_dds(identity), data).map(drop).map_err(dds_error)
+        match r.write_reply(&identity_to_dds(identity), data) {
+            Ok(_) => Ok(WriteOutcome::Accepted),
+            Err(e) => self.refused(replier, e, now),
+        }
     }
 
     fn start_reading(&mut self, reader: EntityRef) -> Result<(), MiddlewareError> {
@@ -862,28 +886,22 @@ impl Middleware for Dds {
         }
     }
 
-    fn next_sample_size(&mut self, reader: EntityRef) -> Option<usize> {
-        let node = self.entities.get_mut(&reader)?;
-        let len = node.front()?.data.len();
-        Some(match node.handle {
-            Handle::Replier(_) => SampleIdentity::SIZE + len,
-            Handle::Requester(_) => 4 + len,
-            _ => len,
-        })
-    }
-
-    fn take_sample(&mut self, reader: EntityRef) -> Option<Sample> {
+    fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
         let node = self.entities.get_mut(&reader)?;
         node.front()?;
-        let s = node.local.pop_front()?;
-        Some(match node.handle {
-            Handle::Replier(_) => Sample::Request { identity: identity_to_xrce(&s.identity), data: s.data },
+        let s = node.local.front()?;
+        let taken = match node.handle {
+            Handle::Replier(_) => visit(SampleRef::Request { identity: identity_to_xrce(&s.identity), data: &s.data }),
             Handle::Requester(_) => {
                 let id = s.request_id.and_then(|id| u16::try_from(id).ok()).unwrap_or(0);
-                Sample::Reply { request_id: RequestId(id), data: s.data }
+                visit(SampleRef::Reply { request_id: RequestId(id), data: &s.data })
             }
-            _ => Sample::Data(s.data),
-        })
+            _ => visit(SampleRef::Data(&s.data)),
+        };
+        if taken {
+            node.local.pop_front();
+        }
+        Some(taken)
     }
 
     fn set_waker(&mut self, waker: Waker) {
@@ -895,26 +913,31 @@ impl Middleware for Dds {
         self.waker = Some(waker);
     }
 
-    fn can_write(&mut self, writer: EntityRef) -> bool {
-        if !self.gates.is_empty() && !self.gate_open(writer) {
-            return false;
+    fn write_credit(&mut self, writer: EntityRef, now: Instant) -> u32 {
+        if !self.gates.is_empty() && !self.gate_open(writer, now) {
+            return 0;
         }
         if self.pinned.is_empty() {
-            return true;
+            return u32::MAX;
         }
         let Some(Node { handle: Handle::Writer(state), .. }) = self.entities.get(&writer).map(|n| &**n) else {
-            return true;
+            return u32::MAX;
         };
         let WriterState { writer: w, topic, written } = &**state;
         let guid = w.guid();
-        let now = Instant::now();
-        !self.pinned.iter().filter_map(|r| self.entities.get(r)).any(|node| match &node.handle {
-            Handle::Reader(r) if r.topic == *topic => {
-                let bound = RELIABLE_BACKLOG.min(r.reader.queue().capacity() / 2).max(1);
-                node.backlog_for(&guid, *written, now) >= bound
-            }
-            _ => false,
-        })
+        let room = self
+            .pinned
+            .iter()
+            .filter_map(|r| self.entities.get(r))
+            .filter_map(|node| match &node.handle {
+                Handle::Reader(r) if r.topic == *topic => {
+                    let bound = RELIABLE_BACKLOG.min(r.reader.queue().capacity() / 2).max(1);
+                    Some(bound.saturating_sub(node.backlog_for(&guid, *written, now)))
+                }
+                _ => None,
+            })
+            .min();
+        room.map_or(u32::MAX, |r| u32::try_from(r).unwrap_or(u32::MAX))
     }
 
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {

@@ -1,0 +1,502 @@
+//! One proxy client as a state machine (spec §10): its session, streams, objects and read tasks, what it
+//! has to send ([`Outbox`]) and its own timers. The endpoint ([`AgentCore`](super::AgentCore)) routes a
+//! datagram to it ([`Connection::handle_message`], in `input.rs`), runs it when its timer is due
+//! ([`Connection::handle_timeout`]), and takes what it queued. Everything the connection needs from outside
+//! (the middleware, limits, counters, buffers) comes in a [`Ctx`]; what it cannot do alone (delete itself,
+//! wake other clients' readers) it reports in the context or with [`Connection::take_delete_request`].
+
+use std::fmt::Debug;
+use std::hash::Hash;
+use std::time::{Duration, Instant};
+
+use xrce_proto::{
+    BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId, ResultStatus, StatusCode, StreamId,
+    StreamKind, Submessage,
+};
+
+use super::droplog::DropLog;
+use super::object::ObjectTable;
+use super::outbox::{Class, Outbox};
+use super::read::ReadTask;
+use super::session::{Resume, Streams, Unpinned};
+use super::stream::{fragment, ReliableOut};
+use super::vecmap::VecMap;
+use super::{encode_into, encode_submessage, CoreConfig, CoreStats};
+use crate::bufpool::BufPool;
+use crate::middleware::{EntityRef, Middleware};
+
+/// What a connection borrows from the endpoint while it runs.
+pub(crate) struct Ctx<'a, E, M> {
+    pub middleware: &'a mut M,
+    pub config: &'a CoreConfig,
+    pub stats: &'a mut CoreStats,
+    pub pool: &'a mut BufPool,
+    pub drop_log: &'a mut DropLog<E>,
+    /// Instant tied to a wall-clock time, for TIMESTAMP_REPLY.
+    pub wall_anchor: Option<(Instant, Duration)>,
+    /// Samples the middleware accepted: readers of any client may have something to deliver.
+    pub writes: usize,
+    /// Something changed that may let held writers go (readers unpinned, an entity created).
+    pub retry: bool,
+}
+
+impl<E: Copy + Eq + Hash, M> Ctx<'_, E, M> {
+    /// [`DropLog::admit`] for a peer that may be unknown (always warned about then).
+    pub fn admit_warning(&mut self, peer: Option<E>, now: Instant) -> Option<u64> {
+        match peer {
+            Some(p) => self.drop_log.admit(p, now),
+            None => Some(0),
+        }
+    }
+
+    /// The wall-clock time at `now`.
+    pub fn wall_time(&self, now: Instant) -> xrce_proto::Time {
+        let (at, since_epoch) = self.wall_anchor.unwrap_or((now, Duration::ZERO));
+        let t = if now >= at { since_epoch.saturating_add(now - at) } else { since_epoch.saturating_sub(at - now) };
+        xrce_proto::Time { seconds: i32::try_from(t.as_secs()).unwrap_or(i32::MAX), nanoseconds: t.subsec_nanos() }
+    }
+}
+
+/// One client known to the agent.
+#[derive(Debug)]
+pub struct Connection<E> {
+    /// Its key.
+    pub key: ClientKey,
+    /// Session id from CREATE_CLIENT.
+    pub session_id: u8,
+    /// Largest message the agent sends it.
+    pub mtu: usize,
+    /// Where replies go (the source of its latest message); unknown for a client created through the API
+    /// until it sends something.
+    pub endpoint: Option<E>,
+    /// Streams.
+    pub streams: Streams,
+    /// Objects.
+    pub objects: ObjectTable,
+    /// Active read tasks by reader/requester/replier id.
+    pub reads: VecMap<ObjectId, ReadTask>,
+    /// Last time anything came from it.
+    pub last_heard: Instant,
+    /// Dead time from `uxr_hl`: when present, a dead client is probed and removed.
+    pub hard_liveliness: Option<Duration>,
+    /// Probes sent since it went silent.
+    pub probes: u8,
+    /// Whether it asked for the shared-memory shortcut (`uxr_sm`); kept for the DDS middleware.
+    pub shared_memory: bool,
+    /// Several DATA submessages may share one message ([`PACK_PROPERTY`](super::session::PACK_PROPERTY),
+    /// or [`CoreConfig::pack_data`]). Off for eProsima's C client, which does not skip a DATA payload and
+    /// so cannot read a second submessage after one.
+    pub pack_data: bool,
+    /// Its reliable readers stopped holding writers back (see [`Unpinned`]).
+    pub unpinned: Option<Unpinned>,
+    /// Reliable input streams whose held message was processed in part: where to resume.
+    pub resume: VecMap<u8, Resume>,
+    /// Reliable input streams holding a message until the middleware can take its writes.
+    pub blocked: Vec<StreamId>,
+    /// Reliable input streams owed an ACKNACK (built with their latest state when the endpoint sends it).
+    pub acks_due: Vec<u8>,
+    /// What it has to send.
+    pub outbox: Outbox,
+    /// Next periodic turn: HEARTBEATs, liveliness, dead-client removal.
+    pub heartbeat_due: Option<Instant>,
+    /// The instant of its entry in the endpoint's timer queue, if one is queued.
+    pub(super) timer_queued: Option<Instant>,
+    /// A DELETE of the client itself: the endpoint removes it and answers.
+    pub(super) delete_request: Option<(BaseObjectRequest, MessageHeader)>,
+    /// Set while its read tasks are served: reliable DATA waits to be packed several per message.
+    pub(super) pumping: bool,
+}
+
+/// What a timer turn decided about the connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Liveness {
+    Alive,
+    /// Silent past its limit (or unanswered liveliness probes): the endpoint removes it.
+    Remove,
+}
+
+impl<E: Copy + Eq + Hash + Debug> Connection<E> {
+    /// A fresh client.
+    pub fn new(key: ClientKey, session_id: u8, mtu: usize, endpoint: Option<E>, now: Instant) -> Self {
+        Self {
+            key,
+            session_id,
+            mtu,
+            endpoint,
+            streams: Streams::default(),
+            objects: ObjectTable::default(),
+            reads: VecMap::default(),
+            last_heard: now,
+            hard_liveliness: None,
+            probes: 0,
+            shared_memory: false,
+            pack_data: false,
+            unpinned: None,
+            resume: VecMap::default(),
+            blocked: Vec::new(),
+            acks_due: Vec::new(),
+            outbox: Outbox::default(),
+            heartbeat_due: None,
+            timer_queued: None,
+            delete_request: None,
+            pumping: false,
+        }
+    }
+
+    /// Header of a message to this client on `stream` with `seq`.
+    pub fn header(&self, stream: StreamId, seq: u16) -> MessageHeader {
+        MessageHeader::new(self.session_id, stream, seq, self.key)
+    }
+
+    /// Largest message several submessages may be packed into: the MTU, or 0 (one submessage per message)
+    /// unless the client reads packed messages.
+    pub fn pack_mtu(&self) -> usize {
+        if self.pack_data {
+            self.mtu
+        } else {
+            0
+        }
+    }
+
+    /// Its dead time.
+    pub fn dead_time(&self, default: Duration) -> Duration {
+        self.hard_liveliness.unwrap_or(default)
+    }
+
+    /// Whether it has been silent longer than its dead time.
+    pub fn is_dead(&self, now: Instant, default: Duration) -> bool {
+        now.saturating_duration_since(self.last_heard) > self.dead_time(default)
+    }
+
+    /// Resets every stream (same-session CREATE_CLIENT, RESET).
+    pub fn reset_streams(&mut self) {
+        self.streams = Streams::default();
+        self.resume = VecMap::default();
+        self.blocked.clear();
+        self.acks_due.clear();
+    }
+
+    /// The DELETE of the client itself it received, if any.
+    pub(super) fn take_delete_request(&mut self) -> Option<(BaseObjectRequest, MessageHeader)> {
+        self.delete_request.take()
+    }
+
+    // ---- timers ----
+
+    /// The next instant [`Self::handle_timeout`] has work: the periodic turn, a tail-loss probe, a paced read.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let probes = self.streams.rel_out.values().filter_map(ReliableOut::probe_due).min();
+        let reads = self.reads.values().filter_map(ReadTask::wake_at).min();
+        [self.heartbeat_due, probes, reads].into_iter().flatten().min()
+    }
+
+    /// Starts the periodic turn if it is not running.
+    pub fn arm_heartbeat(&mut self, now: Instant, period: Duration) {
+        if self.heartbeat_due.is_none() {
+            self.heartbeat_due = Some(now + period);
+        }
+    }
+
+    /// Runs what is due: tail-loss probes, paced reads, then the periodic turn (HEARTBEATs of streams with messages in
+    /// flight, back-pressure release of a dead or stalled reader, liveliness probes).
+    pub(crate) fn handle_timeout<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) -> Liveness {
+        self.fire_probes(ctx, now);
+        if self.reads.values().any(|t| t.wake_at().is_some_and(|t| t <= now)) {
+            // A paced read may go on: its expired timers are forgotten whether or not a sample goes.
+            for (_, task) in self.reads.iter_mut() {
+                task.expire_timers(now);
+            }
+            self.pump_reads(ctx, now);
+        }
+        if self.heartbeat_due.is_some_and(|due| now >= due) {
+            self.heartbeat_due = None;
+            return self.heartbeat_turn(ctx, now);
+        }
+        Liveness::Alive
+    }
+
+    fn fire_probes<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) {
+        let period = ctx.config.heartbeat_period;
+        let mut beats: [Option<xrce_proto::submessage::Heartbeat>; 4] = [None; 4];
+        let mut n = 0;
+        for (sid, out) in self.streams.rel_out.iter_mut() {
+            let Some(due) = out.probe_due().filter(|due| *due <= now) else { continue };
+            // A stream re-arms its probe itself when `fire_probe` says so.
+            let (beat, _) = out.fire_probe(*sid, due, now, period);
+            if let (Some(hb), Some(slot)) = (beat, beats.get_mut(n)) {
+                *slot = Some(hb);
+                n += 1;
+            }
+        }
+        for hb in beats.into_iter().flatten() {
+            ctx.stats.tail_probes = ctx.stats.tail_probes.saturating_add(1);
+            self.send_control(ctx, &Submessage::Heartbeat(hb));
+        }
+    }
+
+    fn heartbeat_turn<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) -> Liveness {
+        let config = ctx.config;
+        let silent = now.saturating_duration_since(self.last_heard);
+        if config.remove_silent_clients_after.is_some_and(|limit| silent > limit) {
+            return Liveness::Remove;
+        }
+        // Back-pressure bound: a reader that is dead, or alive but acknowledging nothing for the dead time,
+        // stops holding its writers back.
+        let stalled = self.streams.rel_out.iter_mut().map(|(_, s)| s.stalled_for(now)).max().unwrap_or_default();
+        let dead = self.is_dead(now, config.client_dead_time);
+        if self.unpinned.is_none()
+            && (dead || stalled > config.client_dead_time)
+            && self.reads.values().any(|t| t.stream.is_reliable())
+        {
+            self.unpinned = Some(if dead { Unpinned::Dead } else { Unpinned::Stalled });
+            self.pin_readers(ctx, false);
+        }
+        let mut again = self.hard_liveliness.is_some() || config.remove_silent_clients_after.is_some();
+        if dead {
+            if self.hard_liveliness.is_some() {
+                if self.probes >= config.max_liveliness_probes {
+                    return Liveness::Remove;
+                }
+                self.probes += 1;
+                let probe = xrce_proto::submessage::GetInfo {
+                    request: BaseObjectRequest { request_id: xrce_proto::RequestId(0), object_id: ObjectId::CLIENT },
+                    info_mask: 0,
+                };
+                self.send_control(ctx, &Submessage::GetInfo(probe));
+            }
+        } else {
+            let mut beats: [Option<xrce_proto::submessage::Heartbeat>; 4] = [None; 4];
+            let mut n = 0;
+            for (sid, stream) in self.streams.rel_out.iter_mut() {
+                stream.trim();
+                if let Some(hb) = stream.heartbeat(*sid) {
+                    again = true;
+                    if let Some(slot) = beats.get_mut(n) {
+                        *slot = Some(hb);
+                        n += 1;
+                    }
+                }
+            }
+            for hb in beats.into_iter().flatten() {
+                self.send_control(ctx, &Submessage::Heartbeat(hb));
+            }
+        }
+        if again {
+            self.heartbeat_due = Some(now + config.heartbeat_period);
+        }
+        Liveness::Alive
+    }
+
+    /// Tells the middleware whether this client's reliable readers hold writers back (see
+    /// [`Middleware::write_credit`]): not while the client is dead or stalled, so a vanished subscriber
+    /// stalls its publishers for the dead time at most.
+    pub(crate) fn pin_readers<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, pin: bool) {
+        for (id, task) in self.reads.iter() {
+            if task.stream.is_reliable() {
+                ctx.middleware.set_reader_reliable(EntityRef::new(self.key, *id), pin);
+            }
+        }
+        if !pin {
+            tracing::info!(client = %self.key, "client dead or not acknowledging: its reliable readers no longer hold writers back");
+            ctx.retry = true;
+        }
+    }
+
+    // ---- output ----
+
+    /// Queues a message; dropped (counted) when the client has no endpoint yet, or, the oldest stream
+    /// message (which a reliable stream retransmits), when its outbox is full.
+    pub(crate) fn push<M>(&mut self, ctx: &mut Ctx<'_, E, M>, class: Class, data: Vec<u8>) {
+        if self.endpoint.is_none() {
+            ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
+            ctx.pool.put(data);
+            return;
+        }
+        if let Some(dropped) = self.outbox.push(class, data, ctx.config.max_transmit_queue) {
+            ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
+            ctx.pool.put(dropped);
+        }
+        ctx.stats.messages_out = ctx.stats.messages_out.saturating_add(1);
+    }
+
+    /// Encodes a one-submessage control message on stream 0.
+    pub(crate) fn send_control<M>(&mut self, ctx: &mut Ctx<'_, E, M>, sub: &Submessage<'_>) {
+        let header = self.header(StreamId::NONE, 0);
+        let mut buf = ctx.pool.get();
+        if encode_into(&mut buf, &header, sub) {
+            self.push(ctx, Class::Control, buf);
+        } else {
+            ctx.pool.put(buf);
+        }
+    }
+
+    /// Schedules an ACKNACK for a reliable input stream; a batch of messages costs one per stream.
+    pub(crate) fn owe_acknack(&mut self, stream: StreamId) {
+        if !self.acks_due.contains(&stream.0) {
+            self.acks_due.push(stream.0);
+        }
+    }
+
+    /// The next ACKNACK owed, built now from its stream's state.
+    pub(crate) fn next_acknack(&mut self, pool: &mut BufPool) -> Option<Vec<u8>> {
+        while !self.acks_due.is_empty() {
+            let stream = self.acks_due.remove(0);
+            let Some(ack) = self.streams.rel_in.get(&stream).map(|s| s.acknack(stream)) else { continue };
+            let mut buf = pool.get();
+            if encode_into(&mut buf, &self.header(StreamId::NONE, 0), &Submessage::AckNack(ack)) {
+                return Some(buf);
+            }
+            pool.put(buf);
+        }
+        None
+    }
+
+    /// Sends a STATUS reply on `stream`.
+    pub(crate) fn send_status<M>(
+        &mut self,
+        ctx: &mut Ctx<'_, E, M>,
+        stream: StreamId,
+        request: BaseObjectRequest,
+        status: StatusCode,
+        now: Instant,
+    ) {
+        let reply = BaseObjectReply { related_request: request, result: ResultStatus::new(status) };
+        let header_len = self.header(stream, 0).size();
+        if let Some(sub) = encode_submessage(header_len, &Submessage::Status(reply)) {
+            self.send_on_stream(ctx, stream, sub, now);
+        }
+    }
+
+    /// Sends one submessage (header included) on an output stream: packed with the previous best-effort
+    /// DATA when the client allows, queued on a reliable stream (fragmented past the MTU) and flushed as
+    /// far as its window allows.
+    pub(crate) fn send_on_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: StreamId, sub: Vec<u8>, now: Instant) {
+        let header = self.header(stream, 0);
+        let header_len = header.size();
+        let fits = header_len + sub.len() <= self.mtu;
+        let is_new = match stream.kind() {
+            StreamKind::None => false,
+            StreamKind::BestEffort => !self.streams.be_out.contains_key(&stream.0),
+            StreamKind::Reliable => !self.streams.rel_out.contains_key(&stream.0),
+        };
+        if is_new && self.streams.count() >= ctx.config.max_streams_per_client {
+            tracing::warn!(client = %self.key, stream = stream.0, "too many streams: message dropped");
+            ctx.pool.put(sub);
+            return;
+        }
+        match stream.kind() {
+            StreamKind::None | StreamKind::BestEffort => {
+                if !fits {
+                    tracing::debug!(client = %self.key, stream = stream.0, len = sub.len(), "message over the MTU on an unreliable stream dropped");
+                    ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
+                    ctx.pool.put(sub);
+                    return;
+                }
+                // A DATA on a best-effort stream joins the client's newest message of that stream if it is
+                // still queued and has room: one datagram for several samples.
+                if self.pack_data && stream.kind() == StreamKind::BestEffort {
+                    if let Some(last) = self.outbox.open_message(stream.0) {
+                        let pad = (4 - last.len() % 4) % 4;
+                        if last.len() + pad + sub.len() <= self.mtu {
+                            last.resize(last.len() + pad, 0);
+                            last.extend_from_slice(&sub);
+                            ctx.pool.put(sub);
+                            return;
+                        }
+                    }
+                }
+                let seq = if stream.kind() == StreamKind::None {
+                    0
+                } else {
+                    self.streams.be_out.get_or_insert_with(stream.0, Default::default).next_seq()
+                };
+                let mut msg = ctx.pool.get();
+                msg.resize(header_len, 0);
+                if (MessageHeader { sequence_nr: seq, ..header }).encode(&mut msg).is_err() {
+                    ctx.pool.put(msg);
+                    ctx.pool.put(sub);
+                    return;
+                }
+                msg.extend_from_slice(&sub);
+                ctx.pool.put(sub);
+                if stream.kind() == StreamKind::None {
+                    self.push(ctx, Class::Control, msg);
+                } else {
+                    self.push(ctx, Class::Stream, msg);
+                    self.outbox.leave_open(stream.0);
+                }
+            }
+            StreamKind::Reliable => {
+                let (window, max_pending) = (ctx.config.reliable_window, ctx.config.max_pending_per_stream);
+                let out = self.streams.rel_out.get_or_insert_with(stream.0, || ReliableOut::new(window, max_pending));
+                let queued = if fits { out.queue_one(sub) } else { out.queue(fragment(&sub, self.mtu, header_len)) };
+                if !queued {
+                    tracing::warn!(client = %self.key, stream = stream.0, "reliable output queue full: message dropped");
+                    ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
+                    return;
+                }
+                if !self.pumping {
+                    self.flush_stream(ctx, stream, now);
+                }
+                self.arm_heartbeat(now, ctx.config.heartbeat_period);
+            }
+        }
+    }
+
+    /// Sends what is queued on a reliable output stream, as far as its window allows (several submessages
+    /// per message when the client reads packed messages).
+    pub(crate) fn flush_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: StreamId, now: Instant) {
+        let header = self.header(stream, 0);
+        let mtu = self.pack_mtu();
+        let period = ctx.config.heartbeat_period;
+        let Some(out) = self.streams.rel_out.get_mut(&stream.0) else { return };
+        let mut built: Vec<Vec<u8>> = Vec::new();
+        out.flush(&header, mtu, Some(now), ctx.pool, |m| built.push(m));
+        let _ = out.arm_probe(now, period);
+        for m in built {
+            self.push(ctx, Class::Stream, m);
+        }
+    }
+
+    /// An ACKNACK for one of its reliable output streams: retransmits what it asks for, sends what the
+    /// window now allows; pins its readers again once it acknowledges something after a stall.
+    pub(crate) fn handle_acknack<M: Middleware>(
+        &mut self,
+        ctx: &mut Ctx<'_, E, M>,
+        ack: &xrce_proto::submessage::AckNack,
+        now: Instant,
+    ) {
+        let header = self.header(StreamId(ack.stream_id), 0);
+        let mtu = self.pack_mtu();
+        let period = ctx.config.heartbeat_period;
+        let Some(out) = self.streams.rel_out.get_mut(&ack.stream_id) else { return };
+        let before = out.first_unacked();
+        let mut built: Vec<Vec<u8>> = Vec::new();
+        out.on_acknack(ack, now, period, ctx.pool, |m| built.push(m));
+        let progressed = out.first_unacked() != before;
+        out.flush(&header, mtu, Some(now), ctx.pool, |m| built.push(m));
+        let _ = out.arm_probe(now, period);
+        for m in built {
+            self.push(ctx, Class::Stream, m);
+        }
+        if progressed && self.unpinned.take().is_some() {
+            self.pin_readers(ctx, true);
+        }
+    }
+
+    /// Deletes everything it holds from the middleware (children first, so callbacks see each).
+    pub(crate) fn release<M: Middleware>(&mut self, middleware: &mut M) {
+        for (reader, _) in self.reads.drain() {
+            middleware.stop_reading(EntityRef::new(self.key, reader));
+        }
+        for root in self.objects.roots() {
+            for id in self.objects.subtree(root) {
+                if let Err(e) = middleware.delete(EntityRef::new(self.key, id)) {
+                    tracing::debug!(client = %self.key, %id, "middleware delete failed: {e}");
+                }
+                self.objects.remove(id);
+            }
+        }
+        middleware.delete_client(self.key);
+    }
+}

@@ -1,0 +1,197 @@
+//! A connection's read tasks (spec §6.8, §10.3 READ_DATA): samples taken from the middleware through its
+//! visitor within the task's delivery control. On a best-effort stream (or stream 0) the visitor copies the
+//! sample once, straight into the outgoing message; on a reliable stream into a DATA submessage the stream
+//! queues until its window lets it build the message.
+
+use std::fmt::Debug;
+use std::hash::Hash;
+use std::time::Instant;
+
+use xrce_proto::view::{RequestHead, SubmessageId};
+use xrce_proto::{BaseObjectRequest, ClientKey, Endianness, MessageHeader, ObjectId};
+
+use super::connection::{Connection, Ctx};
+use super::outbox::Class;
+use crate::middleware::{EntityRef, Middleware, SampleRef};
+
+/// Samples one read task may send per turn on a best-effort stream (reliable streams are bounded by their
+/// window).
+const MAX_SAMPLES_PER_PUMP: usize = 64;
+
+impl<E: Copy + Eq + Hash + Debug> Connection<E> {
+    /// Delivers samples for every active read task while its stream has room.
+    pub(crate) fn pump_reads<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) {
+        let mut readers: [Option<ObjectId>; 8] = [None; 8];
+        let mut rest: Vec<ObjectId> = Vec::new();
+        for (i, id) in self.reads.keys().enumerate() {
+            match readers.get_mut(i) {
+                Some(slot) => *slot = Some(*id),
+                None => rest.push(*id),
+            }
+        }
+        for reader in readers.into_iter().flatten().chain(rest) {
+            self.pump_reader(ctx, reader, now);
+        }
+    }
+
+    /// Delivers the samples one read task may take now. On a reliable stream samples are queued and packed
+    /// several per message (a message's worth at a time) while the window has room.
+    fn pump_reader<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, reader: ObjectId, now: Instant) {
+        let reliable = self.reads.get(&reader).map(|t| t.stream).filter(|s| s.is_reliable());
+        self.pumping = true;
+        self.pump_reader_inner(ctx, reader, reliable, now);
+        self.pumping = false;
+        if let Some(stream) = reliable {
+            self.flush_stream(ctx, stream, now);
+        }
+    }
+
+    fn pump_reader_inner<M: Middleware>(
+        &mut self,
+        ctx: &mut Ctx<'_, E, M>,
+        reader: ObjectId,
+        reliable: Option<xrce_proto::StreamId>,
+        now: Instant,
+    ) {
+        let entity = EntityRef::new(self.key, reader);
+        for _ in 0..MAX_SAMPLES_PER_PUMP {
+            if let Some(stream) = reliable {
+                let pack_mtu = self.pack_mtu();
+                let state = self.streams.rel_out.get(&stream.0);
+                if state.is_some_and(|s| s.pending_bytes() >= pack_mtu && s.has_window_room()) {
+                    self.flush_stream(ctx, stream, now);
+                }
+                if self.streams.rel_out.get(&stream.0).is_some_and(|s| !s.can_take(pack_mtu)) {
+                    return;
+                }
+            }
+            let Some(task) = self.reads.get_mut(&reader) else { return };
+            if task.finished(now) {
+                self.reads.remove(&reader);
+                ctx.middleware.stop_reading(entity);
+                return;
+            }
+            task.expire_timers(now);
+            let (stream, request) = (task.stream, task.request);
+            let taken = if stream.is_reliable() {
+                // Queued on the reliable stream, which builds its messages when its window allows.
+                let mut sub = None;
+                let pool = &mut *ctx.pool;
+                let key = self.key;
+                let taken = ctx.middleware.poll_sample(entity, &mut |sample| {
+                    let size = sample.wire_size();
+                    if task.ready(size, now).is_err() {
+                        return false;
+                    }
+                    let mut buf = pool.get();
+                    if append_data(&mut buf, key, request, &sample) {
+                        sub = Some(buf);
+                    } else {
+                        pool.put(buf);
+                    }
+                    task.sent(size, now);
+                    true
+                });
+                if let Some(sub) = sub {
+                    self.send_on_stream(ctx, stream, sub, now);
+                }
+                taken
+            } else {
+                self.deliver_unreliable(ctx, entity, stream, request, now)
+            };
+            if taken != Some(true) {
+                return;
+            }
+        }
+    }
+
+    /// Takes one sample for a read task on stream 0 or a best-effort stream, copied once: straight into the
+    /// client's open best-effort message when it fits (packing), or into a new message.
+    fn deliver_unreliable<M: Middleware>(
+        &mut self,
+        ctx: &mut Ctx<'_, E, M>,
+        entity: EntityRef,
+        stream: xrce_proto::StreamId,
+        request: BaseObjectRequest,
+        now: Instant,
+    ) -> Option<bool> {
+        let best_effort = stream.kind() == xrce_proto::StreamKind::BestEffort;
+        let pack = self.pack_data && best_effort;
+        let (key, mtu, header) = (self.key, self.mtu, self.header(stream, 0));
+        let task = self.reads.get_mut(&entity.id)?;
+        let (outbox, be_out, pool, stats) =
+            (&mut self.outbox, &mut self.streams.be_out, &mut *ctx.pool, &mut *ctx.stats);
+        let mut new_message = None;
+        let taken = ctx.middleware.poll_sample(entity, &mut |sample| {
+            let size = sample.wire_size();
+            if task.ready(size, now).is_err() {
+                return false;
+            }
+            task.sent(size, now);
+            let sub_len = RequestHead::SIZE + size;
+            if let Some(last) = outbox.open_message(stream.0).filter(|_| pack) {
+                let pad = (4 - last.len() % 4) % 4;
+                if last.len() + pad + sub_len <= mtu {
+                    last.resize(last.len() + pad, 0);
+                    if !append_data(last, key, request, &sample) {
+                        last.truncate(last.len() - pad);
+                    }
+                    return true;
+                }
+            }
+            if header.size() + sub_len > mtu {
+                tracing::debug!(client = %key, stream = stream.0, len = sub_len, "message over the MTU on an unreliable stream dropped");
+                stats.messages_dropped_out = stats.messages_dropped_out.saturating_add(1);
+                return true;
+            }
+            let seq = if best_effort { be_out.get_or_insert_with(stream.0, Default::default).next_seq() } else { 0 };
+            let mut msg = pool.get();
+            msg.resize(header.size(), 0);
+            if (MessageHeader { sequence_nr: seq, ..header }).encode(&mut msg).is_ok()
+                && append_data(&mut msg, key, request, &sample)
+            {
+                new_message = Some(msg);
+            } else {
+                pool.put(msg);
+            }
+            true
+        });
+        if let Some(msg) = new_message {
+            if best_effort {
+                self.push(ctx, Class::Stream, msg);
+                self.outbox.leave_open(stream.0);
+            } else {
+                self.push(ctx, Class::Control, msg);
+            }
+        }
+        taken
+    }
+}
+
+/// Appends a sample as one DATA submessage (spec §6.8), header included, to `buf`; false (logged, nothing
+/// appended) when it is too large for one submessage.
+fn append_data(buf: &mut Vec<u8>, key: ClientKey, request: BaseObjectRequest, sample: &SampleRef<'_>) -> bool {
+    let head = RequestHead::data(SubmessageId::Data, request, sample.wire_size());
+    let Some(head_bytes) = head.to_bytes() else {
+        tracing::warn!(client = %key, size = head.encoded_len(), "sample too large for one DATA submessage, dropped");
+        return false;
+    };
+    buf.extend_from_slice(&head_bytes);
+    match *sample {
+        SampleRef::Data(d) => buf.extend_from_slice(d),
+        SampleRef::Request { identity, data } => {
+            let mut id_buf = [0u8; xrce_proto::SampleIdentity::SIZE];
+            let mut w = xrce_proto::cdr::Writer::new(&mut id_buf, Endianness::Little);
+            w.write(&identity);
+            buf.extend_from_slice(&id_buf);
+            buf.extend_from_slice(data);
+        }
+        SampleRef::Reply { request_id, data } => {
+            // A reply starts with the request it answers (eProsima's requester format).
+            let related = BaseObjectRequest { request_id, object_id: request.object_id };
+            buf.extend_from_slice(&related.to_bytes());
+            buf.extend_from_slice(data);
+        }
+    }
+    true
+}
