@@ -1,5 +1,5 @@
-//! Deterministic reliability test: a client core and a minimal agent-side peer (built from the same stream
-//! types, as the agent's reliable streams follow the same wire rules) exchange samples both ways over a link
+//! Deterministic reliability test: a client core and a minimal agent-side peer (built from the client's stream
+//! types, which run the same engine as the agent's, `xrce_proto::reliable`) exchange samples both ways over a link
 //! that drops, duplicates and reorders 20 % of the packets each. Every sample must arrive exactly once, in
 //! order, intact, including the fragmented ones.
 //!
@@ -16,22 +16,8 @@ use xrce_client::prelude::*;
 use xrce_client::session::MILLIS;
 use xrce_client::stream::{InputReliable, OutputReliable, Ready, Received};
 use xrce_proto::message::Submessages;
+use xrce_proto::reliable::FaultRng as Rng;
 use xrce_proto::{ClientKey, MessageHeader, Submessage};
-
-/// xorshift64*: a small seeded PRNG, so every run sees the same losses.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn chance(&mut self, percent: u64) -> bool {
-        self.next() % 100 < percent
-    }
-}
 
 /// One direction of the link: packets with their delivery time.
 #[derive(Default)]
@@ -70,7 +56,7 @@ impl Link {
         };
         for _ in 0..copies {
             // 20 % take a detour of up to 40 ms, so they overtake and get overtaken.
-            let delay = if rng.chance(20) { 1 + (rng.next() % 40) as i64 } else { 1 };
+            let delay = if rng.chance(20) { 1 + (rng.next_u64() % 40) as i64 } else { 1 };
             self.queue.push((now + delay * MILLIS, msg.to_vec()));
         }
     }
@@ -214,7 +200,7 @@ struct Cost {
 }
 
 fn run(seed: u64, n: u32) -> (i64, Cost) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let (mut c_out, mut c_in, mut a_in, mut a_out) = ([0u8; 1024], [0u8; 2048], [0u8; 2048], [0u8; 1024]);
     let mut client: SessionCore<'_, 1, 1, 1, 1> = SessionCore::new(SESSION, KEY.to_u32(), 512);
     let out = client.create_output_reliable_stream(&mut c_out, 8).unwrap();

@@ -18,6 +18,7 @@ pub mod framing;
 pub mod header;
 pub mod message;
 pub mod object;
+pub mod reliable;
 pub mod submessage;
 pub mod types;
 pub mod view;

@@ -634,9 +634,15 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// The earliest time something will be due without new input (a retry, a heartbeat), if any.
     pub fn poll_timeout(&self) -> Option<i64> {
         let st = &self.st;
-        let retries = [st.session_retry, st.ping_retry].into_iter().flatten().map(|r| r.next);
-        let heartbeats = st.out_rel.iter().flatten().filter_map(OutputReliable::timeout);
-        retries.chain(heartbeats).min()
+        // A plain fold: the iterator chain it replaces cost a microcontroller ~200 bytes of code.
+        let mut next = i64::MAX;
+        for retry in [&st.session_retry, &st.ping_retry].into_iter().flatten() {
+            next = next.min(retry.next);
+        }
+        for stream in st.out_rel.iter().flatten() {
+            next = next.min(stream.timeout().unwrap_or(i64::MAX));
+        }
+        (next != i64::MAX).then_some(next)
     }
 
     /// Whether something is ready to be sent right now.

@@ -1,8 +1,9 @@
 //! Reliable input stream (spec §9.4): in-order delivery over `history` slots, ACKNACK contents, reassembly of
 //! fragmented messages.
 
-use super::{fragment_info, seq, slot_size, SLOT_LEN_WORD, SUBHEADER};
+use super::{fragment_info, slot_size, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
+use xrce_proto::reliable::{InputWindow, SeqNum};
 use xrce_proto::{MessageHeader, SubmessageHeader};
 
 /// What [`InputReliable::receive`] decided for a message.
@@ -44,8 +45,8 @@ pub struct InputReliable<'a> {
     buf: &'a mut [u8],
     history: u16,
     slot: usize,
-    last_handled: u16,
-    last_announced: u16,
+    /// Last handled and last announced sequence numbers (the shared engine).
+    window: InputWindow,
     ack_pending: bool,
 }
 
@@ -54,18 +55,16 @@ impl<'a> InputReliable<'a> {
     pub fn new(buf: &'a mut [u8], history: usize) -> Result<Self> {
         let slot = slot_size(buf.len(), history).ok_or(Error::InvalidHistory)?;
         let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
-        let mut s = Self { buf, history, slot, last_handled: seq::INIT, last_announced: seq::INIT, ack_pending: false };
+        let mut s = Self { buf, history, slot, window: InputWindow::new(), ack_pending: false };
         s.reset();
         Ok(s)
     }
 
     /// Forgets everything stored and restarts numbering.
     pub fn reset(&mut self) {
-        for i in 0..usize::from(self.history) {
-            self.set_len_at(i, 0);
-        }
-        self.last_handled = seq::INIT;
-        self.last_announced = seq::INIT;
+        // One memset clears every length word in less code than a loop over them.
+        self.buf.fill(0);
+        self.window = InputWindow::new();
         self.ack_pending = false;
     }
 
@@ -98,20 +97,18 @@ impl<'a> InputReliable<'a> {
     }
 
     fn in_window(&self, seq_nr: u16) -> bool {
-        let d = seq_nr.wrapping_sub(self.last_handled);
-        d != 0 && d <= self.history
+        SeqNum(seq_nr).in_window(self.window.last_handled, self.history)
     }
 
     /// Takes message `seq_nr` (the whole message, header included) and says what to do with it. Whatever the
     /// outcome an ACKNACK becomes due, as with the C client.
     pub fn receive(&mut self, seq_nr: u16, msg: &[u8]) -> Received {
         self.ack_pending = true;
-        self.last_announced = seq::max(self.last_announced, seq_nr);
-        if !self.in_window(seq_nr) {
+        if !self.window.on_message(SeqNum(seq_nr), self.history) {
             return Received::Rejected;
         }
         let fragment = fragment_info(msg).is_some();
-        if seq_nr == self.last_handled.wrapping_add(1) && !fragment {
+        if seq_nr == self.window.next().0 && !fragment {
             return Received::Now;
         }
         if self.len_of(seq_nr) != 0 || msg.len() > self.slot_capacity() || msg.is_empty() {
@@ -128,12 +125,12 @@ impl<'a> InputReliable<'a> {
 
     /// Records that the message [`Received::Now`] reported was processed.
     pub fn handled(&mut self, seq_nr: u16) {
-        self.last_handled = seq_nr;
+        self.window.last_handled = SeqNum(seq_nr);
     }
 
     /// A HEARTBEAT for this stream: the peer has sent up to `last_unacked`; an ACKNACK becomes due.
     pub fn on_heartbeat(&mut self, last_unacked: u16) {
-        self.last_announced = seq::max(self.last_announced, last_unacked);
+        self.window.on_heartbeat(SeqNum(last_unacked));
         self.ack_pending = true;
     }
 
@@ -146,29 +143,20 @@ impl<'a> InputReliable<'a> {
     /// pending flag.
     pub fn acknack(&mut self) -> (u16, u16) {
         self.ack_pending = false;
-        let mut first = self.last_handled.wrapping_add(1);
+        let mut first = self.window.next().0;
         for _ in 0..self.history {
             if self.len_of(first) == 0 {
                 break;
             }
             first = first.wrapping_add(1);
         }
-        let mut bitmap = 0u16;
-        for i in 0..16u16 {
-            let s = first.wrapping_add(i);
-            if seq::lt(self.last_announced, s) {
-                break;
-            }
-            if !self.in_window(s) || self.len_of(s) == 0 {
-                bitmap |= 1 << i;
-            }
-        }
-        (first, bitmap)
+        let ack = self.window.acknack(SeqNum(first), |s| !self.in_window(s.0) || self.len_of(s.0) == 0);
+        (ack.first_unacked.0, ack.bitmap)
     }
 
     /// What can be processed next, if anything.
     pub fn next_ready(&self) -> Option<Ready> {
-        let first = self.last_handled.wrapping_add(1);
+        let first = self.window.next().0;
         let msg = self.message(first)?;
         if fragment_info(msg).is_none() {
             return Some(Ready::Message(first));
@@ -201,7 +189,7 @@ impl<'a> InputReliable<'a> {
             let index = self.index(first.wrapping_add(i));
             self.set_len_at(index, 0);
         }
-        self.last_handled = first.wrapping_add(count).wrapping_sub(1);
+        self.window.last_handled = SeqNum(first).add(count).sub(1);
     }
 
     /// Joins the FRAGMENT payloads of `first..first+count` at the start of the buffer and returns their length.

@@ -13,34 +13,34 @@ pub use input_best_effort::InputBestEffort;
 pub(crate) use input_reliable::Ready as input_reliable_ready;
 pub use input_reliable::{InputReliable, Ready, Received};
 pub use output_best_effort::OutputBestEffort;
-pub use output_reliable::{OutputReliable, HEARTBEAT_PERIOD_NS, PROBE_FLOOR_NS};
+pub use output_reliable::{
+    OutputReliable, DEFAULT_RETRANSMIT_FLOOR_NS, HEARTBEAT_PERIOD_NS, MAX_RETRANSMIT_INTERVAL_NS, PROBE_FLOOR_NS,
+};
 
 use xrce_proto::MessageHeader;
 
-/// Serial-number arithmetic on 16-bit sequence numbers (spec §9.1).
+/// Serial-number arithmetic on 16-bit sequence numbers (spec §9.1), over the engine's
+/// [`SeqNum`](xrce_proto::reliable::SeqNum).
 pub mod seq {
+    use xrce_proto::reliable::SeqNum;
+
     /// `a < b` in serial arithmetic: `b` is 1..=32767 ahead of `a`.
     pub const fn lt(a: u16, b: u16) -> bool {
-        let d = b.wrapping_sub(a);
-        d != 0 && d < 0x8000
+        SeqNum(a).lt(SeqNum(b))
     }
 
     /// `a <= b` in serial arithmetic.
     pub const fn le(a: u16, b: u16) -> bool {
-        a == b || lt(a, b)
+        SeqNum(a).le(SeqNum(b))
     }
 
     /// The later of two sequence numbers.
     pub const fn max(a: u16, b: u16) -> u16 {
-        if lt(a, b) {
-            b
-        } else {
-            a
-        }
+        SeqNum(a).max(SeqNum(b)).0
     }
 
     /// Initial value of every "last" counter: the first number used is therefore 0.
-    pub const INIT: u16 = 0xFFFF;
+    pub const INIT: u16 = SeqNum::INIT.0;
 }
 
 /// Bytes of every slot used for the length word (not on the wire), as in the C client.

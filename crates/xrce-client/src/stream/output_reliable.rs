@@ -2,50 +2,39 @@
 //!
 //! The buffer is split into `history` slots; slot `seq mod history` holds message `seq`. A message can be
 //! written only while its slot is inside the window (`seq - last_acknown <= history`); when it is not, writes
-//! fail with [`Error::WouldBlock`] instead of stalling. HEARTBEATs go out every 100 ms while something is
-//! unacknowledged; an ACKNACK releases slots.
+//! fail with [`Error::WouldBlock`] instead of stalling. An ACKNACK releases slots.
 //!
-//! Retransmission departs from the C client on purpose (the wire is unchanged, the agent sees ordinary,
-//! byte-identical resends). The C client resends its whole unacknowledged window on every ACKNACK carrying a
-//! NACK bit (go-back-N, spec §9.3 step 4). Agents send one ACKNACK per reliable message they receive, so under
-//! loss plus reordering many ACKNACKs report the same gap, each one resent the whole window, each resend drew
-//! more ACKNACKs, and retransmissions grew without bound. Here, as the agent does for its own output (§9.5):
-//! * only the sequence numbers whose NACK bit is set are resent (selective repeat);
-//! * a message already retransmitted is not retransmitted again before a minimum interval since its last
-//!   transmission: `max(floor, srtt)` capped at [`MAX_RETRANSMIT_INTERVAL_NS`], where the round
-//!   trip is estimated from ACKNACKs acknowledging messages sent once (Karn's rule) and the floor defaults to
-//!   [`DEFAULT_RETRANSMIT_FLOOR_NS`] ([`OutputReliable::set_retransmit_floor`]); a first retransmission is
-//!   immediate, as with the C client and the agent;
-//! * an ACKNACK without NACK bits only releases slots, it never resends.
-//!
-//! Tail losses (the last messages sent, or the ACKNACK of a full window) are recovered by a HEARTBEAT, whose
-//! answer names the gaps. The C client waits 100 ms for it; here, once an acknowledgement has given a
-//! round-trip sample, the first HEARTBEAT after a send goes out a *probe timeout* later,
-//! `max(2 × smallest round trip, PROBE_FLOOR_NS)` (not srtt: a sample that waited for a lost ACKNACK would
-//! stretch it), doubling with every HEARTBEAT left unanswered by progress, up to the
-//! C client's 100 ms (measured through a 20 % lossy link: see docs/benchmarks.md). Without an estimate yet
-//! (the first messages of a session) the period is the C client's.
+//! Acknowledgement, retransmission and HEARTBEATs are the shared engine's ([`xrce_proto::reliable::Sender`],
+//! the agent runs the same): selective repeat of the NACKed messages only, a repeat deferred until
+//! `max(floor, srtt)` has passed since the last send (the floor defaults to [`DEFAULT_RETRANSMIT_FLOOR_NS`],
+//! [`OutputReliable::set_retransmit_floor`]), and tail-loss probes: the C client's 100 ms HEARTBEAT period
+//! until a round trip is known, then `max(2 × smallest round trip, PROBE_FLOOR_NS)` after the last send or
+//! progress, doubling while unanswered up to the period. The C client instead resends its whole window on
+//! every NACK (go-back-N, spec §9.3 step 4), which under loss plus reordering grew without bound; the wire is
+//! unchanged, the agent sees ordinary, byte-identical resends.
 //!
 //! Each slot's 4-byte length word (not on the wire, as in the C client) holds the message length (2 bytes) and
-//! 2 bytes of bookkeeping: whether the message ends with a FRAGMENT, whether it was sent and retransmitted, and
-//! the time of its last transmission in milliseconds modulo 8192. Slot capacity, and so the fragmentation
-//! layout, stay exactly the C client's.
+//! 2 bytes of bookkeeping the engine reads through [`SendLog`]: whether the message ends with a FRAGMENT,
+//! whether it was sent and retransmitted, and the time of its last transmission in milliseconds modulo 8192.
+//! Slot capacity, and so the fragmentation layout, stay exactly the C client's.
 
 use super::{align4, seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
+use xrce_proto::reliable::{AckNackBits, Duration, FragmentPlan, Instant, SendLog, Sender, SeqNum};
 use xrce_proto::view::FragmentHead;
 use xrce_proto::{ClientKey, MessageHeader, StreamId};
 
 /// Heartbeat period of the C client (`UCLIENT_MIN_HEARTBEAT_TIME_INTERVAL`), in nanoseconds.
 pub const HEARTBEAT_PERIOD_NS: i64 = 100_000_000;
+const PERIOD: Duration = Duration::from_nanos(HEARTBEAT_PERIOD_NS);
 
 /// Shortest probe timeout: a HEARTBEAT never follows a send sooner, however short the round trip.
-pub const PROBE_FLOOR_NS: i64 = 2_000_000;
+pub const PROBE_FLOOR_NS: i64 = xrce_proto::reliable::PROBE_FLOOR.as_nanos();
 
 /// Default floor of the interval between two retransmissions of one message, in nanoseconds.
-pub const DEFAULT_RETRANSMIT_FLOOR_NS: i64 = 20_000_000;
+pub const DEFAULT_RETRANSMIT_FLOOR_NS: i64 = xrce_proto::reliable::DEFAULT_RETRANSMIT_FLOOR.as_nanos();
 /// Longest interval between two retransmissions of one message, whatever the round-trip estimate says.
-pub const MAX_RETRANSMIT_INTERVAL_NS: i64 = 1_000_000_000;
+pub const MAX_RETRANSMIT_INTERVAL_NS: i64 = xrce_proto::reliable::MAX_RETRANSMIT_INTERVAL.as_nanos();
 
 /// Slot flag: the message ends with a FRAGMENT, so it is sent without trailing padding.
 const ENDS_WITH_FRAGMENT: u16 = 0x01;
@@ -56,11 +45,11 @@ const RESENT: u16 = 0x04;
 /// Slot bits holding the time of the last transmission, in milliseconds modulo 8192.
 const STAMP_SHIFT: u16 = 3;
 const STAMP_MASK: u16 = 0x1FFF;
-const NS_PER_MS: i64 = 1_000_000;
 
 /// Milliseconds modulo 8192 at `now`.
-fn stamp_ms(now: i64) -> u16 {
-    u16::try_from(now.div_euclid(NS_PER_MS) & i64::from(STAMP_MASK)).unwrap_or(0)
+fn stamp_ms(now: Instant) -> u16 {
+    // Masked to 13 bits: always fits.
+    (now.0.div_euclid(1000) & i64::from(STAMP_MASK)) as u16
 }
 
 /// A fragmented submessage being written.
@@ -76,34 +65,84 @@ struct Chain {
     remaining: usize,
 }
 
-/// A reliable output stream over a caller's buffer.
+/// The caller's buffer cut into `history` slots, each a 4-byte length word (message length, then the
+/// bookkeeping flags and time stamp) and room for one message.
 #[derive(Debug)]
-pub struct OutputReliable<'a> {
+struct Slots<'a> {
     buf: &'a mut [u8],
     history: u16,
     slot: usize,
-    header_size: usize,
+}
+
+impl Slots<'_> {
+    fn word_at(&self, seq_nr: u16, half: usize) -> u16 {
+        let at = usize::from(seq_nr & (self.history - 1)) * self.slot + half;
+        match self.buf.get(at..at + 2) {
+            Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
+            _ => 0,
+        }
+    }
+
+    fn set_word(&mut self, seq_nr: u16, half: usize, v: u16) {
+        let at = usize::from(seq_nr & (self.history - 1)) * self.slot + half;
+        if let Some(dst) = self.buf.get_mut(at..at + 2) {
+            dst.copy_from_slice(&v.to_le_bytes());
+        }
+    }
+
+    fn flags(&self, seq_nr: u16) -> u16 {
+        self.word_at(seq_nr, 2)
+    }
+
+    /// Sets the message length and flags of slot `seq_nr`.
+    fn set(&mut self, seq_nr: u16, len: usize, flags: u16) {
+        let word = u32::from(u16::try_from(len).unwrap_or(0)) | u32::from(flags) << 16;
+        let at = usize::from(seq_nr & (self.history - 1)) * self.slot;
+        if let Some(dst) = self.buf.get_mut(at..at + SLOT_LEN_WORD) {
+            dst.copy_from_slice(&word.to_le_bytes());
+        }
+    }
+
+    /// The message area of slot `seq_nr`.
+    fn content(&self, seq_nr: u16) -> &[u8] {
+        let at = usize::from(seq_nr & (self.history - 1)) * self.slot + SLOT_LEN_WORD;
+        self.buf.get(at..at + self.slot - SLOT_LEN_WORD).unwrap_or(&[])
+    }
+
+    fn content_mut(&mut self, seq_nr: u16) -> &mut [u8] {
+        let at = usize::from(seq_nr & (self.history - 1)) * self.slot + SLOT_LEN_WORD;
+        self.buf.get_mut(at..at + self.slot - SLOT_LEN_WORD).unwrap_or(&mut [])
+    }
+}
+
+impl SendLog for Slots<'_> {
+    fn since_sent(&self, seq: SeqNum, now: Instant) -> Option<(Duration, bool)> {
+        let flags = self.flags(seq.0);
+        if flags & SENT == 0 {
+            return None;
+        }
+        let elapsed = stamp_ms(now).wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
+        Some((Duration::from_millis(i64::from(elapsed)), flags & RESENT != 0))
+    }
+
+    fn stamp(&mut self, seq: SeqNum, now: Instant, retransmission: bool) {
+        let old = self.flags(seq.0);
+        let resent = if retransmission { RESENT } else { old & RESENT };
+        self.set_word(seq.0, 2, (old & ENDS_WITH_FRAGMENT) | SENT | resent | (stamp_ms(now) << STAMP_SHIFT));
+    }
+}
+
+/// A reliable output stream over a caller's buffer.
+#[derive(Debug)]
+pub struct OutputReliable<'a> {
+    slots: Slots<'a>,
+    /// Message header size (4 or 8; a byte keeps the session small).
+    header_size: u8,
     last_written: u16,
-    last_sent: u16,
-    last_acknown: u16,
-    /// NACKed messages to resend now: bit i ↔ `last_acknown + 1 + i`.
-    resend: u16,
-    /// NACKed messages retransmitted too recently, to resend once their interval has passed (same bits).
-    deferred: u16,
-    /// When the first of `deferred` becomes due.
-    deferred_at: Option<i64>,
+    /// Acknowledgement, retransmission and probe state (the shared engine).
+    sender: Sender,
     flush: bool,
-    heartbeat_deadline: Option<i64>,
     chain: Option<Chain>,
-    /// Smoothed round trip in microseconds (0: no sample yet).
-    srtt_us: u32,
-    /// Smallest round-trip sample in microseconds (0: none yet): the probe timeout's base, because a sample
-    /// can include the wait for a lost acknowledgement and inflate `srtt`.
-    min_rtt_us: u32,
-    /// HEARTBEATs sent since the last acknowledgement that released something (backs the probe off).
-    probes: u8,
-    /// Floor of the interval between two retransmissions of one message, in microseconds.
-    floor_us: u32,
 }
 
 impl<'a> OutputReliable<'a> {
@@ -112,101 +151,65 @@ impl<'a> OutputReliable<'a> {
     pub fn new(buf: &'a mut [u8], history: usize, header_size: usize) -> Result<Self> {
         let slot = slot_size(buf.len(), history).ok_or(Error::InvalidHistory)?;
         let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
+        let header_size = u8::try_from(header_size).map_err(|_| Error::InvalidHistory)?;
         let mut s = Self {
-            buf,
-            history,
-            slot,
+            slots: Slots { buf, history, slot },
             header_size,
             last_written: 0,
-            last_sent: seq::INIT,
-            last_acknown: seq::INIT,
-            resend: 0,
-            deferred: 0,
-            deferred_at: None,
+            sender: Sender::new(),
             flush: false,
-            heartbeat_deadline: None,
             chain: None,
-            srtt_us: 0,
-            min_rtt_us: 0,
-            probes: 0,
-            floor_us: 0,
         };
-        s.set_retransmit_floor(DEFAULT_RETRANSMIT_FLOOR_NS);
         s.reset();
         Ok(s)
     }
 
     /// Drops everything and restarts numbering (session (re)creation).
     pub fn reset(&mut self) {
-        for i in 0..usize::from(self.history) {
-            self.set_slot(i, 0, 0);
-        }
+        // Zeroing the whole buffer (one memset) clears every length word in less code than a loop over them.
+        self.slots.buf.fill(0);
         self.last_written = 0;
-        self.last_sent = seq::INIT;
-        self.last_acknown = seq::INIT;
-        self.resend = 0;
-        self.deferred = 0;
-        self.deferred_at = None;
+        self.sender.reset();
         self.flush = false;
-        self.heartbeat_deadline = None;
         self.chain = None;
-        self.srtt_us = 0;
-        self.min_rtt_us = 0;
-        self.probes = 0;
     }
 
     /// Sets the floor of the interval between two retransmissions of one message (nanoseconds; default
     /// [`DEFAULT_RETRANSMIT_FLOOR_NS`], capped at [`MAX_RETRANSMIT_INTERVAL_NS`]). The interval used is the
     /// larger of this floor and the round-trip estimate.
     pub fn set_retransmit_floor(&mut self, floor_ns: i64) {
-        let us = floor_ns.clamp(0, MAX_RETRANSMIT_INTERVAL_NS) / 1000;
-        self.floor_us = u32::try_from(us).unwrap_or(u32::MAX);
+        self.sender.set_retransmit_floor(Duration::from_nanos(floor_ns));
     }
 
     /// The smoothed round-trip estimate in nanoseconds, once an acknowledgement gave one.
     pub fn srtt(&self) -> Option<i64> {
-        (self.srtt_us > 0).then(|| i64::from(self.srtt_us) * 1000)
+        self.sender.probe.rtt.smoothed().map(Duration::as_nanos)
     }
 
-    /// Minimum time between two retransmissions of one message now: `max(floor, srtt)`, capped. One round
-    /// trip is how long ACKNACKs that left the agent before a retransmission reached it keep coming; a NACK
-    /// arriving later is evidence that the retransmission was lost. (ACKNACKs delayed further by reordering
-    /// cost at most one extra retransmission per interval, never a cascade.)
+    /// Minimum time between two retransmissions of one message now (nanoseconds): `max(floor, srtt)`, capped.
     pub fn retransmit_interval(&self) -> i64 {
-        (i64::from(self.srtt_us).max(i64::from(self.floor_us)) * 1000).min(MAX_RETRANSMIT_INTERVAL_NS)
+        self.sender.retransmit_interval().as_nanos()
     }
 
     /// How long after a send (or the last HEARTBEAT) the next HEARTBEAT goes out: `max(2 × smallest round
     /// trip, PROBE_FLOOR_NS)` doubled per unanswered HEARTBEAT, at most [`HEARTBEAT_PERIOD_NS`]; that period
     /// until a round trip has been sampled.
     pub fn probe_timeout(&self) -> i64 {
-        if self.min_rtt_us == 0 {
-            return HEARTBEAT_PERIOD_NS;
-        }
-        let base = (i64::from(self.min_rtt_us) * 2000).max(PROBE_FLOOR_NS);
-        // Past 16 doublings any base is over the period; shifting further would overflow.
-        base.saturating_mul(1 << self.probes.min(16)).min(HEARTBEAT_PERIOD_NS)
+        self.sender.probe.timeout(PERIOD).as_nanos()
     }
 
-    /// Folds a round-trip sample into the estimate (exponential average, gain 1/8 as in RFC 6298).
-    fn rtt_sample(&mut self, sample_us: u32) {
-        let r = sample_us.max(1);
-        self.srtt_us = if self.srtt_us == 0 { r } else { (self.srtt_us - self.srtt_us / 8 + r / 8).max(1) };
-        self.min_rtt_us = if self.min_rtt_us == 0 { r } else { self.min_rtt_us.min(r) };
+    const fn header_len(&self) -> usize {
+        self.header_size as usize
     }
 
     /// Bytes of message a slot holds (header included): the slot minus its length word.
     pub const fn slot_capacity(&self) -> usize {
-        self.slot - SLOT_LEN_WORD
+        self.slots.slot - SLOT_LEN_WORD
     }
 
     /// Largest submessage (header included) that fits one message.
     pub const fn max_unfragmented(&self) -> usize {
-        self.slot_capacity() - self.header_size
-    }
-
-    fn index(&self, seq_nr: u16) -> usize {
-        usize::from(seq_nr & (self.history - 1))
+        self.slot_capacity() - self.header_len()
     }
 
     /// Length of message `seq_nr`; 0 outside the window, where the slot still belongs to an older message.
@@ -214,78 +217,20 @@ impl<'a> OutputReliable<'a> {
         if !self.window_ok(seq_nr) {
             return 0;
         }
-        let at = self.index(seq_nr) * self.slot;
-        match self.buf.get(at..at + 2) {
-            Some(&[lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
-            _ => 0,
-        }
-    }
-
-    /// The bookkeeping half of the slot's length word.
-    fn flags_of(&self, seq_nr: u16) -> u16 {
-        let at = self.index(seq_nr) * self.slot + 2;
-        match self.buf.get(at..at + 2) {
-            Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
-            _ => 0,
-        }
-    }
-
-    fn set_flags(&mut self, seq_nr: u16, flags: u16) {
-        let at = self.index(seq_nr) * self.slot + 2;
-        if let Some(dst) = self.buf.get_mut(at..at + 2) {
-            dst.copy_from_slice(&flags.to_le_bytes());
-        }
-    }
-
-    fn set_slot(&mut self, index: usize, len: usize, flags: u16) {
-        let at = index * self.slot;
-        let len = u16::try_from(len).unwrap_or(0).to_le_bytes();
-        let flags = flags.to_le_bytes();
-        if let Some(dst) = self.buf.get_mut(at..at + SLOT_LEN_WORD) {
-            dst.copy_from_slice(&[len[0], len[1], flags[0], flags[1]]);
-        }
+        usize::from(self.slots.word_at(seq_nr, 0))
     }
 
     fn set_len(&mut self, seq_nr: u16, len: usize, flags: u16) {
-        self.set_slot(self.index(seq_nr), len, flags);
+        self.slots.set(seq_nr, len, flags);
     }
 
-    /// Records a transmission of message `seq_nr` at `now`.
-    fn stamp(&mut self, seq_nr: u16, now: i64, retransmission: bool) {
-        let old = self.flags_of(seq_nr);
-        let resent = if retransmission { RESENT } else { old & RESENT };
-        let flags = (old & ENDS_WITH_FRAGMENT) | SENT | resent | (stamp_ms(now) << STAMP_SHIFT);
-        self.set_flags(seq_nr, flags);
-    }
-
-    /// Milliseconds since the last transmission of message `seq_nr` (modulo 8192), and whether it was
-    /// retransmitted; `None` if it was never sent.
-    fn since_sent(&self, seq_nr: u16, now: i64) -> Option<(i64, bool)> {
-        let flags = self.flags_of(seq_nr);
-        if flags & SENT == 0 {
-            return None;
-        }
-        let elapsed = stamp_ms(now).wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
-        Some((i64::from(elapsed), flags & RESENT != 0))
-    }
-
-    /// The message area of slot `seq_nr`.
     fn content_mut(&mut self, seq_nr: u16) -> &mut [u8] {
-        let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
-        let end = at + self.slot_capacity();
-        self.buf.get_mut(at..end).unwrap_or(&mut [])
-    }
-
-    fn content(&self, seq_nr: u16) -> &[u8] {
-        let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
-        let end = at + self.slot_capacity();
-        self.buf.get(at..end).unwrap_or(&[])
+        self.slots.content_mut(seq_nr)
     }
 
     /// Whether message `seq_nr` may be written: its slot no longer holds an unacknowledged message.
     fn window_ok(&self, seq_nr: u16) -> bool {
-        let d = seq_nr.wrapping_sub(self.last_acknown);
-        d != 0 && d <= self.history
+        SeqNum(seq_nr).in_window(self.sender.last_acked(), self.slots.history)
     }
 
     /// Where the next message would start: (slot, offset) in the current slot when `fits` says so, else the next.
@@ -308,12 +253,12 @@ impl<'a> OutputReliable<'a> {
         let cur_len = self.len_of(cur);
         let (target, at) = if cur_len > 0 && align4(cur_len) + total <= cap {
             (cur, align4(cur_len))
-        } else if self.header_size + total <= cap {
+        } else if self.header_len() + total <= cap {
             let next = self.next_slot();
             if !self.window_ok(next) {
                 return Err(Error::WouldBlock);
             }
-            (next, self.header_size)
+            (next, self.header_len())
         } else {
             return Ok(None);
         };
@@ -341,11 +286,9 @@ impl<'a> OutputReliable<'a> {
         }
         let (first, first_off) = self.first_fragment_place(1);
         let cap = self.slot_capacity();
-        let first_chunk = cap - first_off - SUBHEADER;
-        let block = cap - self.header_size - SUBHEADER;
-        let rest = total.saturating_sub(first_chunk);
-        let extra = rest.div_ceil(block);
-        if extra >= usize::from(self.history) {
+        let plan = FragmentPlan { first: cap - first_off - SUBHEADER, block: cap - self.header_len() - SUBHEADER };
+        let extra = plan.count(total) - 1;
+        if extra >= usize::from(self.slots.history) {
             return Err(Error::TooLarge);
         }
         let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
@@ -379,7 +322,7 @@ impl<'a> OutputReliable<'a> {
         if cur_len > 0 && align4(cur_len) + SUBHEADER + min_first <= self.slot_capacity() {
             (cur, align4(cur_len))
         } else {
-            (self.next_slot(), self.header_size)
+            (self.next_slot(), self.header_len())
         }
     }
 
@@ -404,7 +347,7 @@ impl<'a> OutputReliable<'a> {
         if self.chain.is_some() {
             return Err(Error::Busy);
         }
-        if self.slot_capacity() < self.header_size + SUBHEADER + head.len() {
+        if self.slot_capacity() < self.header_len() + SUBHEADER + head.len() {
             return Err(Error::TooLarge);
         }
         let (first, at) = self.first_fragment_place(head.len());
@@ -431,7 +374,7 @@ impl<'a> OutputReliable<'a> {
     /// when the window is full: run the session and push the rest).
     pub fn push(&mut self, mut data: &[u8]) -> usize {
         let cap = self.slot_capacity();
-        let hs = self.header_size;
+        let hs = self.header_len();
         let mut taken = 0;
         while let Some(mut c) = self.chain {
             if c.remaining == 0 || data.is_empty() {
@@ -498,30 +441,21 @@ impl<'a> OutputReliable<'a> {
         now: i64,
         out: &mut [u8],
     ) -> Option<usize> {
-        let seq_nr = self.next_to_send(now)?;
+        let seq_nr = self.next_to_send(Instant::from_nanos(now))?;
         let len = self.len_of(seq_nr);
-        let padded = if self.flags_of(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { align4(len) };
+        let padded = if self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { align4(len) };
         let dst = out.get_mut(..padded)?;
         let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
-        dst.get_mut(hs..len)?.copy_from_slice(self.content(seq_nr).get(hs..len)?);
+        dst.get_mut(hs..len)?.copy_from_slice(self.slots.content(seq_nr).get(hs..len)?);
         dst.get_mut(len..padded)?.fill(0);
         Some(padded)
     }
 
-    fn next_to_send(&mut self, now: i64) -> Option<u16> {
-        if self.deferred_at.is_some_and(|at| now >= at) {
-            self.release_deferred(now);
+    fn next_to_send(&mut self, now: Instant) -> Option<u16> {
+        if let Some(r) = self.sender.next_retransmission(&mut self.slots, now) {
+            return Some(r.0);
         }
-        while self.resend != 0 {
-            let offset = self.resend.trailing_zeros();
-            self.resend &= !(1 << offset);
-            let r = self.last_acknown.wrapping_add(1).wrapping_add(u16::try_from(offset).unwrap_or(0));
-            if seq::le(r, self.last_sent) && self.len_of(r) > 0 {
-                self.stamp(r, now, true);
-                return Some(r);
-            }
-        }
-        let s = self.last_sent.wrapping_add(1);
+        let s = self.sender.last_sent().next().0;
         if self.len_of(s) == 0 {
             if s == self.last_written {
                 self.flush = false;
@@ -538,143 +472,48 @@ impl<'a> OutputReliable<'a> {
         } else if !seq::lt(s, self.last_written) {
             return None;
         }
-        self.last_sent = s;
-        self.stamp(s, now, false);
-        if self.heartbeat_deadline.is_none() {
-            self.heartbeat_deadline = Some(now + self.probe_timeout());
-        }
+        self.sender.on_sent(&mut self.slots, SeqNum(s), now);
+        self.sender.probe.arm(now, PERIOD);
         Some(s)
     }
 
     /// A HEARTBEAT `(first_unacked, last_unacked)` when one is due.
     pub fn poll_heartbeat(&mut self, now: i64) -> Option<(u16, u16)> {
-        if self.last_acknown == self.last_sent {
-            self.heartbeat_deadline = None;
-            return None;
-        }
-        match self.heartbeat_deadline {
-            None => {
-                self.heartbeat_deadline = Some(now + self.probe_timeout());
-                None
-            }
-            Some(d) if now >= d => {
-                self.probes = self.probes.saturating_add(1);
-                self.heartbeat_deadline = Some(now + self.probe_timeout());
-                Some((self.last_acknown.wrapping_add(1), self.last_sent))
-            }
-            Some(_) => None,
-        }
+        self.sender.poll_heartbeat(Instant::from_nanos(now), PERIOD).map(|(f, l)| (f.0, l.0))
     }
 
     /// When the next HEARTBEAT is due, if any.
     pub const fn heartbeat_deadline(&self) -> Option<i64> {
-        self.heartbeat_deadline
+        match self.sender.probe.due() {
+            Some(due) => Some(due.as_nanos()),
+            None => None,
+        }
     }
 
     /// An ACKNACK for this stream: release what is acknowledged, then schedule a resend of each NACKed message
     /// (bit i ↔ `first_unacked + i`) that is still unacknowledged and was not retransmitted within
     /// [`retransmit_interval`](Self::retransmit_interval). Without NACK bits nothing is resent.
     pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
-        let acked = first_unacked.wrapping_sub(1);
-        if seq::lt(self.last_acknown, acked) && seq::le(acked, self.last_sent) {
-            // The oldest message released gives a round-trip sample (the ones after it may have waited for it),
-            // unless a retransmission was involved in the range (Karn's rule).
-            let sample = self.since_sent(self.last_acknown.wrapping_add(1), now);
-            let released = acked.wrapping_sub(self.last_acknown);
-            let mut clean = true;
-            let mut s = self.last_acknown.wrapping_add(1);
-            loop {
-                clean &= self.flags_of(s) & RESENT == 0;
-                self.set_len(s, 0, 0);
-                if s == acked {
-                    break;
-                }
-                s = s.wrapping_add(1);
-            }
-            if let (true, Some((ms, false))) = (clean, sample) {
-                self.rtt_sample(u32::try_from(ms * 1000).unwrap_or(u32::MAX));
-            }
-            self.last_acknown = acked;
-            self.probes = 0;
-            self.resend = self.resend.checked_shr(u32::from(released)).unwrap_or(0);
-            self.deferred = self.deferred.checked_shr(u32::from(released)).unwrap_or(0);
-            if self.deferred == 0 {
-                self.deferred_at = None;
-            }
+        let ack = AckNackBits { first_unacked: SeqNum(first_unacked), bitmap };
+        let first = self.sender.last_acked().next().0;
+        let released = self.sender.on_acknack(&mut self.slots, ack, Instant::from_nanos(now), PERIOD);
+        for i in 0..released {
+            self.slots.set(first.wrapping_add(i), 0, 0);
         }
-        if bitmap != 0 {
-            let interval = self.retransmit_interval();
-            let first_pending = self.last_acknown.wrapping_add(1);
-            for i in 0..16u16 {
-                if bitmap & (1 << i) == 0 {
-                    continue;
-                }
-                let s = first_unacked.wrapping_add(i);
-                // A stale ACKNACK may name messages acknowledged since, a bogus one messages never sent.
-                if !seq::le(first_pending, s) || !seq::le(s, self.last_sent) {
-                    continue;
-                }
-                let offset = s.wrapping_sub(first_pending);
-                if offset >= 16 {
-                    continue;
-                }
-                // ACKNACKs answering messages that left before the retransmission reached the agent still
-                // name it: a retransmitted message waits for the interval before going again. If no ACKNACK
-                // acknowledges it meanwhile, the retransmission was lost: it goes when the interval ends.
-                match self.since_sent(s, now) {
-                    Some((ms, true)) if ms * NS_PER_MS < interval => {
-                        self.deferred |= 1 << offset;
-                        let at = now + interval - ms * NS_PER_MS;
-                        self.deferred_at = Some(self.deferred_at.map_or(at, |d| d.min(at)));
-                    }
-                    _ => self.resend |= 1 << offset,
-                }
-            }
-            self.deferred &= !self.resend;
-        }
-        let unacked = self.last_acknown != self.last_sent;
-        self.heartbeat_deadline = unacked.then(|| now + self.probe_timeout());
-    }
-
-    /// Moves the deferred resends whose interval has passed to the resend set; re-arms the timer for the rest.
-    fn release_deferred(&mut self, now: i64) {
-        let interval = self.retransmit_interval();
-        let first = self.last_acknown.wrapping_add(1);
-        let mut next: Option<i64> = None;
-        for offset in 0..16u16 {
-            if self.deferred & (1 << offset) == 0 {
-                continue;
-            }
-            let s = first.wrapping_add(offset);
-            match self.since_sent(s, now) {
-                Some((ms, _)) if ms * NS_PER_MS < interval && seq::le(s, self.last_sent) => {
-                    let at = now + interval - ms * NS_PER_MS;
-                    next = Some(next.map_or(at, |n| n.min(at)));
-                }
-                _ => {
-                    self.deferred &= !(1 << offset);
-                    self.resend |= 1 << offset;
-                }
-            }
-        }
-        self.deferred_at = next;
     }
 
     /// The earliest time this stream has something to do without new input: a HEARTBEAT or a deferred
     /// retransmission.
     pub fn timeout(&self) -> Option<i64> {
-        match (self.heartbeat_deadline, self.deferred_at) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        self.sender.timeout().map(Instant::as_nanos)
     }
 
     /// Whether everything that can be sent was sent and acknowledged. During a continuous fragmented write the
     /// slot being filled cannot leave before more bytes come, so it does not count: the flush callback of
     /// `prepare_output_stream_fragmented` waits for exactly this.
     pub fn confirmed(&self) -> bool {
-        let next = self.last_sent.wrapping_add(1);
-        self.last_acknown == self.last_sent
+        let next = self.sender.last_sent().next().0;
+        !self.sender.unacked()
             && match self.chain {
                 Some(c) => next == c.seq,
                 None => next == self.last_written && self.len_of(self.last_written) == 0,
@@ -683,7 +522,7 @@ impl<'a> OutputReliable<'a> {
 
     /// Whether a message waits to be (re)sent now.
     pub fn has_pending(&self) -> bool {
-        let s = self.last_sent.wrapping_add(1);
-        self.resend != 0 || (self.len_of(s) > 0 && (seq::lt(s, self.last_written) || self.flush))
+        let s = self.sender.last_sent().next().0;
+        self.sender.has_retransmission() || (self.len_of(s) > 0 && (seq::lt(s, self.last_written) || self.flush))
     }
 }
