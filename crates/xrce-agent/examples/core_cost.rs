@@ -48,6 +48,15 @@ fn setup(core: &mut AgentCore<u8, Ced>, ep: u8, key: &str, now: Instant) {
     while core.poll_transmit().is_some() {}
 }
 
+/// The first unacknowledged sequence number an ACKNACK in `msg` gives, if it has one.
+fn acknowledged(msg: &[u8]) -> Option<u16> {
+    let (_, subs) = message::parse(msg).ok()?;
+    subs.flatten().find_map(|raw| match raw.decode() {
+        Ok(Submessage::AckNack(a)) => Some(a.first_unacked_seq_num),
+        _ => None,
+    })
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let samples: u32 = args.first().and_then(|a| a.parse().ok()).unwrap_or(200_000);
@@ -94,13 +103,7 @@ fn main() {
         }
         while let Some(t) = core.poll_transmit() {
             if t.to == PUBLISHER {
-                if let Ok((_, subs)) = message::parse(&t.data) {
-                    for raw in subs.flatten() {
-                        if let Ok(Submessage::AckNack(a)) = raw.decode() {
-                            pub_acked = a.first_unacked_seq_num;
-                        }
-                    }
-                }
+                pub_acked = acknowledged(&t.data).unwrap_or(pub_acked);
             } else if let Ok((header, subs)) = message::parse(&t.data) {
                 {
                     // A DATA, or the last FRAGMENT of a sample the MTU made the agent cut.
@@ -130,13 +133,7 @@ fn main() {
             }
             while let Some(t) = core.poll_transmit() {
                 if t.to == PUBLISHER {
-                    if let Ok((_, subs)) = message::parse(&t.data) {
-                        for raw in subs.flatten() {
-                            if let Ok(Submessage::AckNack(a)) = raw.decode() {
-                                pub_acked = a.first_unacked_seq_num;
-                            }
-                        }
-                    }
+                    pub_acked = acknowledged(&t.data).unwrap_or(pub_acked);
                 }
                 core.recycle(t.data);
             }
