@@ -91,6 +91,71 @@ impl<T> Ring<T> {
     }
 }
 
+/// The topics' rings: found by name when an entity attaches, then by the slot the entity keeps, so a sample
+/// never hashes its topic's name (that cost more than the rest of a write and a take together).
+#[derive(Debug, Default)]
+struct TopicSlab {
+    slots: HashMap<TopicKey, usize>,
+    rings: Vec<Option<Ring<Vec<u8>>>>,
+    free: Vec<usize>,
+}
+
+impl TopicSlab {
+    fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Attaches one more entity to the topic `key` (created if new), which then shares the registry's copy
+    /// of the name; the topic's slot.
+    fn attach(&mut self, key: &mut TopicKey) -> Result<usize, MiddlewareError> {
+        if let Some((shared, &slot)) = self.slots.get_key_value(key) {
+            *key = shared.clone();
+            if let Some(ring) = self.get_mut(slot) {
+                ring.users += 1;
+            }
+            return Ok(slot);
+        }
+        if self.slots.len() >= MAX_TOPICS {
+            return Err(MiddlewareError::Resources("CED topic registry full".into()));
+        }
+        let ring = Ring { users: 1, ..Ring::default() };
+        let slot = match self.free.pop() {
+            Some(slot) => {
+                if let Some(free) = self.rings.get_mut(slot) {
+                    *free = Some(ring);
+                }
+                slot
+            }
+            None => {
+                self.rings.push(Some(ring));
+                self.rings.len() - 1
+            }
+        };
+        self.slots.insert(key.clone(), slot);
+        Ok(slot)
+    }
+
+    /// One entity of the topic in `slot` is gone; the topic goes with its last one.
+    fn detach(&mut self, key: &TopicKey, slot: usize) {
+        let Some(entry) = self.rings.get_mut(slot) else { return };
+        let Some(ring) = entry else { return };
+        ring.users = ring.users.saturating_sub(1);
+        if ring.users == 0 {
+            *entry = None;
+            self.slots.remove(key);
+            self.free.push(slot);
+        }
+    }
+
+    fn get(&self, slot: usize) -> Option<&Ring<Vec<u8>>> {
+        self.rings.get(slot)?.as_ref()
+    }
+
+    fn get_mut(&mut self, slot: usize) -> Option<&mut Ring<Vec<u8>>> {
+        self.rings.get_mut(slot)?.as_mut()
+    }
+}
+
 #[derive(Debug)]
 enum Entity {
     Participant {
@@ -99,16 +164,20 @@ enum Entity {
     Topic {
         participant: EntityRef,
         key: TopicKey,
+        /// In [`TopicSlab`], once attached.
+        slot: usize,
     },
     Group {
         participant: EntityRef,
     },
     Writer {
         key: TopicKey,
+        slot: usize,
     },
     Reader {
         key: TopicKey,
         cursor: u64,
+        slot: usize,
     },
     // Boxed so every entity stays small (requesters are rare, participants and endpoints are not).
     #[allow(clippy::box_collection)]
@@ -128,7 +197,7 @@ pub struct Ced {
     profiles: Arc<dyn ProfileSource>,
     default_domain: i16,
     ring_size: usize,
-    topics: HashMap<TopicKey, Ring<Vec<u8>>>,
+    topics: TopicSlab,
     /// Sample buffers to reuse: a write or a take costs no allocation once warm.
     spare: BufPool,
     services: HashMap<TopicKey, Ring<PendingRequest>>,
@@ -182,7 +251,7 @@ impl Ced {
             profiles,
             default_domain: 0,
             ring_size: DEFAULT_RING_SIZE,
-            topics: HashMap::new(),
+            topics: TopicSlab::default(),
             spare: BufPool::with_max_free(SAMPLE_BUFFERS_KEPT),
             services: HashMap::new(),
             entities: HashMap::new(),
@@ -201,9 +270,9 @@ impl Ced {
         self.forced_drops
     }
 
-    /// The oldest sequence number a pinning (reliable) reader of `key` has not taken.
-    fn pin(&self, key: &TopicKey) -> Option<u64> {
-        let ring = self.topics.get(key)?;
+    /// The oldest sequence number a pinning (reliable) reader of the topic in `slot` has not taken.
+    fn pin(&self, slot: usize) -> Option<u64> {
+        let ring = self.topics.get(slot)?;
         ring.pinned
             .iter()
             .filter_map(|r| match self.entities.get(r) {
@@ -214,8 +283,8 @@ impl Ced {
     }
 
     fn unpin(&mut self, reader: EntityRef) {
-        if let Some(Entity::Reader { key, .. }) = self.entities.get(&reader) {
-            if let Some(ring) = self.topics.get_mut(key) {
+        if let Some(&Entity::Reader { slot, .. }) = self.entities.get(&reader) {
+            if let Some(ring) = self.topics.get_mut(slot) {
                 ring.pinned.retain(|r| *r != reader);
             }
         }
@@ -244,18 +313,6 @@ impl Ced {
             Some(Entity::Group { participant }) => Ok((*participant, self.participant_domain(*participant)?)),
             _ => Err(MiddlewareError::UnknownReference(format!("group {group:?}"))),
         }
-    }
-
-    /// Attaches to the topic `key`, which then shares the registry's copy of the name.
-    fn attach_topic(&mut self, key: &mut TopicKey) -> Result<(), MiddlewareError> {
-        if let Some((shared, _)) = self.topics.get_key_value(key) {
-            *key = shared.clone();
-        }
-        if !self.topics.contains_key(key) && self.topics.len() >= MAX_TOPICS {
-            return Err(MiddlewareError::Resources("CED topic registry full".into()));
-        }
-        self.topics.entry(key.clone()).or_default().users += 1;
-        Ok(())
     }
 
     fn attach_service(&mut self, key: &mut TopicKey) -> Result<(), MiddlewareError> {
@@ -291,7 +348,7 @@ impl Ced {
             TopicRef::Object(id) => {
                 let topic_ref = EntityRef::new(entity.client, id.with_kind(ObjectKind::Topic));
                 match self.entities.get(&topic_ref) {
-                    Some(Entity::Topic { participant: p, key }) if *p == participant => Ok(key.clone()),
+                    Some(Entity::Topic { participant: p, key, .. }) if *p == participant => Ok(key.clone()),
                     Some(Entity::Topic { .. }) => {
                         Err(invalid(format!("topic {topic_ref:?} belongs to another participant")))
                     }
@@ -313,7 +370,7 @@ impl Ced {
             }
             (ObjectKind::Topic, Description::Topic { name, .. }) => {
                 let participant = need_parent()?;
-                Entity::Topic { participant, key: (self.participant_domain(participant)?, Arc::from(name)) }
+                Entity::Topic { participant, key: (self.participant_domain(participant)?, Arc::from(name)), slot: 0 }
             }
             (ObjectKind::Publisher | ObjectKind::Subscriber, _) => {
                 let participant = need_parent()?;
@@ -322,11 +379,11 @@ impl Ced {
             }
             (ObjectKind::DataWriter, Description::Endpoint { topic }) => {
                 let (participant, domain) = self.group_participant(need_parent()?)?;
-                Entity::Writer { key: self.endpoint_topic(entity, participant, domain, &topic)? }
+                Entity::Writer { key: self.endpoint_topic(entity, participant, domain, &topic)?, slot: 0 }
             }
             (ObjectKind::DataReader, Description::Endpoint { topic }) => {
                 let (participant, domain) = self.group_participant(need_parent()?)?;
-                Entity::Reader { key: self.endpoint_topic(entity, participant, domain, &topic)?, cursor: 0 }
+                Entity::Reader { key: self.endpoint_topic(entity, participant, domain, &topic)?, cursor: 0, slot: 0 }
             }
             (ObjectKind::Requester, Description::Service { service_name, .. }) => {
                 let domain = self.participant_domain(need_parent()?)?;
@@ -349,11 +406,11 @@ impl Middleware for Ced {
     fn create(&mut self, creation: &Creation<'_>) -> Result<(), MiddlewareError> {
         let mut built = self.build(creation)?;
         match &mut built {
-            Entity::Topic { key, .. } | Entity::Writer { key } => self.attach_topic(key)?,
-            Entity::Reader { key, cursor } => {
-                self.attach_topic(key)?;
+            Entity::Topic { key, slot, .. } | Entity::Writer { key, slot } => *slot = self.topics.attach(key)?,
+            Entity::Reader { key, cursor, slot } => {
+                *slot = self.topics.attach(key)?;
                 // A new reader gets what is still in the ring, oldest first.
-                *cursor = self.topics.get(key).and_then(|r| r.items.front()).map_or(0, |(s, _)| *s);
+                *cursor = self.topics.get(*slot).and_then(|r| r.items.front()).map_or(0, |(s, _)| *s);
             }
             Entity::Requester { key, .. } => self.attach_service(key)?,
             Entity::Replier { key, cursor } => {
@@ -375,7 +432,7 @@ impl Middleware for Ced {
         match (self.entities.get(&creation.entity), new) {
             (Some(Entity::Participant { domain: a }), Entity::Participant { domain: b }) => *a == b,
             (Some(Entity::Topic { key: a, .. }), Entity::Topic { key: b, .. })
-            | (Some(Entity::Writer { key: a }), Entity::Writer { key: b })
+            | (Some(Entity::Writer { key: a, .. }), Entity::Writer { key: b, .. })
             | (Some(Entity::Reader { key: a, .. }), Entity::Reader { key: b, .. })
             | (Some(Entity::Requester { key: a, .. }), Entity::Requester { key: b, .. })
             | (Some(Entity::Replier { key: a, .. }), Entity::Replier { key: b, .. }) => *a == b,
@@ -408,13 +465,12 @@ impl Middleware for Ced {
     }
 
     fn write_data(&mut self, writer: EntityRef, data: &[u8], _now: Instant) -> Result<WriteOutcome, MiddlewareError> {
-        let Entity::Writer { key } = self.entity_mut(writer)? else {
+        let &mut Entity::Writer { slot, .. } = self.entity_mut(writer)? else {
             return Err(MiddlewareError::Unsupported(format!("{writer:?} is not a datawriter")));
         };
-        let key = key.clone();
         let capacity = self.ring_size;
-        let pin = self.pin(&key);
-        if let Some(ring) = self.topics.get_mut(&key) {
+        let pin = self.pin(slot);
+        if let Some(ring) = self.topics.get_mut(slot) {
             let buf = self.spare.copy_fitted(data);
             let spare = &mut self.spare;
             if ring.push(buf, capacity, pin, |old| spare.put(old)) {
@@ -486,9 +542,9 @@ impl Middleware for Ced {
     }
 
     fn write_credit(&mut self, writer: EntityRef, _now: Instant) -> u32 {
-        let Some(Entity::Writer { key }) = self.entities.get(&writer) else { return u32::MAX };
-        let Some(pin) = self.pin(key) else { return u32::MAX };
-        let next = self.topics.get(key).map_or(0, |r| r.next_seq);
+        let Some(&Entity::Writer { slot, .. }) = self.entities.get(&writer) else { return u32::MAX };
+        let Some(pin) = self.pin(slot) else { return u32::MAX };
+        let next = self.topics.get(slot).map_or(0, |r| r.next_seq);
         let backlog = next.saturating_sub(pin);
         u32::try_from((RELIABLE_BACKLOG as u64).saturating_sub(backlog)).unwrap_or(u32::MAX)
     }
@@ -498,8 +554,8 @@ impl Middleware for Ced {
         if !reliable {
             return;
         }
-        if let Some(Entity::Reader { key, .. }) = self.entities.get(&reader) {
-            if let Some(ring) = self.topics.get_mut(key) {
+        if let Some(&Entity::Reader { slot, .. }) = self.entities.get(&reader) {
+            if let Some(ring) = self.topics.get_mut(slot) {
                 ring.pinned.push(reader);
             }
         }
@@ -509,8 +565,8 @@ impl Middleware for Ced {
         let topics = &self.topics;
         let services = &self.services;
         match self.entities.get_mut(&reader)? {
-            Entity::Reader { key, cursor } => {
-                let (seq, data) = topics.get(key)?.at_or_after(*cursor)?;
+            Entity::Reader { cursor, slot, .. } => {
+                let (seq, data) = topics.get(*slot)?.at_or_after(*cursor)?;
                 let taken = visit(SampleRef::Data(data));
                 if taken {
                     *cursor = seq + 1;
@@ -541,8 +597,8 @@ impl Middleware for Ced {
 impl Ced {
     fn release(&mut self, old: Entity) {
         match old {
-            Entity::Topic { key, .. } | Entity::Writer { key } | Entity::Reader { key, .. } => {
-                Self::detach(&mut self.topics, &key);
+            Entity::Topic { key, slot, .. } | Entity::Writer { key, slot } | Entity::Reader { key, slot, .. } => {
+                self.topics.detach(&key, slot);
             }
             Entity::Requester { key, .. } | Entity::Replier { key, .. } => Self::detach(&mut self.services, &key),
             Entity::Participant { .. } | Entity::Group { .. } => {}
@@ -605,6 +661,30 @@ mod tests {
             cycle(&mut ced, round);
         }
         assert_eq!(ced.sample_buffers_created(), warm, "no buffer created per sample once warm");
+    }
+
+    #[test]
+    fn a_topic_slot_is_shared_by_name_and_reused_once_its_last_entity_is_gone() {
+        let mut slab = TopicSlab::default();
+        let mut a: TopicKey = (0, Arc::from("a"));
+        let mut a2: TopicKey = (0, Arc::from("a"));
+        let mut b: TopicKey = (1, Arc::from("a"));
+        let slot_a = slab.attach(&mut a).expect("a");
+        assert_eq!(slab.attach(&mut a2).expect("a again"), slot_a, "same name and domain, same ring");
+        assert!(Arc::ptr_eq(&a.1, &a2.1), "the name is shared");
+        let slot_b = slab.attach(&mut b).expect("b");
+        assert_ne!(slot_b, slot_a, "another domain is another topic");
+        if let Some(ring) = slab.get_mut(slot_a) {
+            ring.push(vec![1], 16, None, drop);
+        }
+        slab.detach(&a, slot_a);
+        assert!(slab.get(slot_a).is_some_and(|r| r.items.len() == 1), "one user left");
+        slab.detach(&a2, slot_a);
+        assert!(slab.get(slot_a).is_none() && slab.len() == 1, "gone with its last user");
+        let mut c: TopicKey = (0, Arc::from("c"));
+        let slot_c = slab.attach(&mut c).expect("c");
+        assert_eq!(slot_c, slot_a, "the free slot is reused");
+        assert!(slab.get(slot_c).is_some_and(|r| r.items.is_empty() && r.next_seq == 0), "with a fresh ring");
     }
 
     #[test]
