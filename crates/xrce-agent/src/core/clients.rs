@@ -55,13 +55,15 @@ where
             self.out_of_session(from, &header, bytes, now);
             return;
         }
-        let key = header.client_key.or_else(|| self.by_endpoint.get(&from).copied());
-        let Some(key) = key.filter(|k| self.clients.contains_key(k)) else {
+        let Some(key) = header.client_key.or_else(|| self.by_endpoint.get(&from).copied()) else {
             self.unknown_client(from, &header, bytes);
             return;
         };
         let (mut ctx, client) = self.ctx_for(key);
-        let Some(client) = client else { return };
+        let Some(client) = client else {
+            self.unknown_client(from, &header, bytes);
+            return;
+        };
         client.handle_message(&mut ctx, from, &header, bytes, now);
         let (writes, retry) = (ctx.writes, ctx.retry);
         let delete = client.take_delete_request();

@@ -295,8 +295,8 @@ where
             return Some(t);
         }
         for class in [outbox::Class::Control, outbox::Class::Stream] {
-            while let Some((client, data)) = self.turns.next(class, &mut self.clients, client_outbox) {
-                match client.endpoint {
+            while let Some((to, data)) = self.turns.next(class, &mut self.clients, client_outbox) {
+                match to {
                     Some(to) => return Some(Transmit { to, data }),
                     None => self.pool.put(data),
                 }
@@ -418,18 +418,27 @@ where
         if retry {
             self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));
         }
-        self.schedule(key);
+        Self::queue_timer(&mut self.timers, key, client);
+        self.purge_timers();
     }
 
     /// Queues the client's next timer unless an entry at or before it is queued already.
     fn schedule(&mut self, key: ClientKey) {
         let Some(client) = self.clients.get_mut(&key) else { return };
+        Self::queue_timer(&mut self.timers, key, client);
+        self.purge_timers();
+    }
+
+    fn queue_timer(timers: &mut BinaryHeap<Reverse<(Instant, ClientKey)>>, key: ClientKey, client: &mut Connection<E>) {
         let Some(due) = client.poll_timeout() else { return };
         if client.timer_queued.is_some_and(|queued| queued <= due) {
             return;
         }
         client.timer_queued = Some(due);
-        self.timers.push(Reverse((due, key)));
+        timers.push(Reverse((due, key)));
+    }
+
+    fn purge_timers(&mut self) {
         // Stale entries are dropped when they come due; past four per client the heap is rebuilt.
         if self.timers.len() > 4 * self.clients.len() + 1024 {
             let clients = &self.clients;
@@ -487,9 +496,9 @@ where
     }
 }
 
-/// The outbox of a client, for [`outbox::TurnLists::next`].
-fn client_outbox<E>(client: &mut Box<Connection<E>>) -> &mut outbox::Outbox {
-    &mut client.outbox
+/// The outbox and the address of a client, for [`outbox::TurnLists::next`].
+fn client_outbox<E: Copy>(client: &mut Box<Connection<E>>) -> (&mut outbox::Outbox, Option<E>) {
+    (&mut client.outbox, client.endpoint)
 }
 
 /// Encodes `header` + one submessage.

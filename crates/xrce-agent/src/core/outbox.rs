@@ -143,17 +143,18 @@ impl TurnLists {
         }
     }
 
-    /// The next client of `clients` whose turn it is for `class`, with its message; the client goes to the
-    /// back of the list while it has more. `outbox` is a client's outbox; gone clients are skipped.
-    pub fn next<'c, T: 'c>(
+    /// The next client of `clients` whose turn it is for `class`: its address and its message; the client
+    /// goes to the back of the list while it has more. `outbox` gives a client's outbox and address; gone
+    /// clients are skipped.
+    pub fn next<T, A>(
         &mut self,
         class: Class,
-        clients: &'c mut HashMap<ClientKey, T>,
-        outbox: impl Fn(&mut T) -> &mut Outbox,
-    ) -> Option<(&'c mut T, Vec<u8>)> {
+        clients: &mut HashMap<ClientKey, T>,
+        outbox: impl Fn(&mut T) -> (&mut Outbox, A),
+    ) -> Option<(A, Vec<u8>)> {
         while let Some(key) = self.list(class).pop_front() {
             let Some(client) = clients.get_mut(&key) else { continue };
-            let out = outbox(client);
+            let (out, address) = outbox(client);
             let Some(msg) = out.pop(class) else {
                 out.set_listed(class, false);
                 continue;
@@ -163,7 +164,7 @@ impl TurnLists {
             } else {
                 out.set_listed(class, false);
             }
-            return clients.get_mut(&key).map(|c| (c, msg));
+            return Some((address, msg));
         }
         None
     }
@@ -179,8 +180,8 @@ impl TurnLists {
 mod tests {
     use super::*;
 
-    fn itself(o: &mut Outbox) -> &mut Outbox {
-        o
+    fn itself(o: &mut Outbox) -> (&mut Outbox, ()) {
+        (o, ())
     }
 
     #[test]

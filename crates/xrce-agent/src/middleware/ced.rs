@@ -56,8 +56,9 @@ struct Ring<T> {
     items: VecDeque<(u64, T)>,
     next_seq: u64,
     users: usize,
-    /// Readers delivering on reliable streams: what they have not taken is kept.
-    pinned: Vec<EntityRef>,
+    /// Readers delivering on reliable streams, with their cursors (a copy of the reader's, kept here so a
+    /// write needs no lookup per reader): what they have not taken is kept.
+    pinned: Vec<(EntityRef, u64)>,
 }
 
 impl<T> Ring<T> {
@@ -272,20 +273,13 @@ impl Ced {
 
     /// The oldest sequence number a pinning (reliable) reader of the topic in `slot` has not taken.
     fn pin(&self, slot: usize) -> Option<u64> {
-        let ring = self.topics.get(slot)?;
-        ring.pinned
-            .iter()
-            .filter_map(|r| match self.entities.get(r) {
-                Some(Entity::Reader { cursor, .. }) => Some(*cursor),
-                _ => None,
-            })
-            .min()
+        self.topics.get(slot)?.pinned.iter().map(|(_, cursor)| *cursor).min()
     }
 
     fn unpin(&mut self, reader: EntityRef) {
         if let Some(&Entity::Reader { slot, .. }) = self.entities.get(&reader) {
             if let Some(ring) = self.topics.get_mut(slot) {
-                ring.pinned.retain(|r| *r != reader);
+                ring.pinned.retain(|(r, _)| *r != reader);
             }
         }
     }
@@ -554,22 +548,29 @@ impl Middleware for Ced {
         if !reliable {
             return;
         }
-        if let Some(&Entity::Reader { slot, .. }) = self.entities.get(&reader) {
+        if let Some(&Entity::Reader { slot, cursor, .. }) = self.entities.get(&reader) {
             if let Some(ring) = self.topics.get_mut(slot) {
-                ring.pinned.push(reader);
+                ring.pinned.push((reader, cursor));
             }
         }
     }
 
     fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
-        let topics = &self.topics;
+        let topics = &mut self.topics;
         let services = &self.services;
         match self.entities.get_mut(&reader)? {
             Entity::Reader { cursor, slot, .. } => {
-                let (seq, data) = topics.get(*slot)?.at_or_after(*cursor)?;
-                let taken = visit(SampleRef::Data(data));
+                let (seq, taken) = {
+                    let (seq, data) = topics.get(*slot)?.at_or_after(*cursor)?;
+                    (*seq, visit(SampleRef::Data(data)))
+                };
                 if taken {
                     *cursor = seq + 1;
+                    if let Some(ring) = topics.get_mut(*slot) {
+                        if let Some((_, pinned)) = ring.pinned.iter_mut().find(|(r, _)| *r == reader) {
+                            *pinned = seq + 1;
+                        }
+                    }
                 }
                 Some(taken)
             }
