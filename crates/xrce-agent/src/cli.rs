@@ -260,7 +260,7 @@ Arguments per transport (place them after the transport):
       -D/--dev <DEVICE>               serial: device path
       -D/--devs \"<DEVICE> ...\"        multiserial: space-separated device paths in one argument
       -f/--file <FILE>                serial: device path on the first line; multiserial: one per line
-  * CAN FD (canfd)
+  * CAN FD (canfd; not implemented yet: the agent exits with an error)
       -D/--dev <INTERFACE>            SocketCAN interface (required)
       -I/--id <HEX>                   CAN identifier [default: 0x00000001]
 
@@ -298,7 +298,7 @@ enum TransportCommand {
     Multiserial(MultiSerialArgs),
     /// A pseudoterminal created by the agent.
     Pseudoterminal(PseudoTerminalArgs),
-    /// CAN FD over SocketCAN.
+    /// CAN FD over SocketCAN (not implemented yet: the agent exits with an error)
     Canfd(CanArgs),
 }
 
