@@ -365,7 +365,7 @@ impl AgentInstance {
             }
             #[cfg(target_os = "linux")]
             Transport::Serial { ref device, baudrate } => {
-                let line = crate::transport::serial::Line::open(Path::new(device), baudrate)
+                let line = crate::transport::serial::Line::open(Path::new(device), baudrate, config.flow_control)
                     .map_err(cannot_open(format!("serial device {device}")))?;
                 start_serial(kind, &config, vec![line], &stop)?
             }
@@ -374,7 +374,7 @@ impl AgentInstance {
                 let lines = devices
                     .iter()
                     .map(|d| {
-                        crate::transport::serial::Line::open(Path::new(d), baudrate)
+                        crate::transport::serial::Line::open(Path::new(d), baudrate, config.flow_control)
                             .map_err(cannot_open(format!("serial device {d}")))
                     })
                     .collect::<Result<Vec<_>, _>>()?;

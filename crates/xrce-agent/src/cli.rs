@@ -64,6 +64,9 @@ pub struct Config {
     pub discovery: Option<u16>,
     /// Port for eProsima's P2P agent discovery (`-P`): refused when the agent starts (not supported).
     pub p2p: Option<u16>,
+    /// RTS/CTS hardware flow control on the serial lines (`--flow-control`; ours: PX4 patches eProsima's
+    /// agent for it).
+    pub flow_control: bool,
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
     /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
@@ -260,6 +263,7 @@ Arguments per transport (place them after the transport):
       -D/--dev <DEVICE>               serial: device path
       -D/--devs \"<DEVICE> ...\"        multiserial: space-separated device paths in one argument
       -f/--file <FILE>                serial: device path on the first line; multiserial: one per line
+      --flow-control                  serial, multiserial: RTS/CTS hardware flow control (ours) [default: off]
   * CAN FD (canfd; not implemented yet: the agent exits with an error)
       -D/--dev <INTERFACE>            SocketCAN interface (required)
       -I/--id <HEX>                   CAN identifier [default: 0x00000001]
@@ -377,6 +381,10 @@ struct SerialArgs {
     #[arg(short = 'b', long, value_name = "BAUD", default_value_t = DEFAULT_BAUDRATE)]
     baudrate: u32,
 
+    /// RTS/CTS hardware flow control (ours).
+    #[arg(long)]
+    flow_control: bool,
+
     #[command(flatten)]
     common: CommonArgs,
 }
@@ -400,6 +408,10 @@ struct MultiSerialArgs {
     /// Line speed in baud.
     #[arg(short = 'b', long, value_name = "BAUD", default_value_t = DEFAULT_BAUDRATE)]
     baudrate: u32,
+
+    /// RTS/CTS hardware flow control on every device (ours).
+    #[arg(long)]
+    flow_control: bool,
 
     #[command(flatten)]
     common: CommonArgs,
@@ -453,6 +465,7 @@ where
 
 impl Cli {
     fn into_config(self) -> Result<Config, clap::Error> {
+        let mut flow_control = false;
         let (transport, common) = match self.transport {
             TransportCommand::Udp4(a) => (Transport::Udp4 { port: a.port }, a.common),
             TransportCommand::Udp6(a) => (Transport::Udp6 { port: a.port }, a.common),
@@ -464,6 +477,7 @@ impl Cli {
                     (None, Some(file)) => first_device(&read_device_file(&file)?, &file)?,
                     (None, None) => return Err(missing("--dev <DEVICE> or --file <FILE>")),
                 };
+                flow_control = a.flow_control;
                 (Transport::Serial { device, baudrate: a.baudrate }, a.common)
             }
             TransportCommand::Multiserial(a) => {
@@ -481,6 +495,7 @@ impl Cli {
                     (None, Some(file)) => all_devices(&read_device_file(&file)?, &file)?,
                     (None, None) => return Err(missing("--devs <DEVICES> or --file <FILE>")),
                 };
+                flow_control = a.flow_control;
                 (Transport::MultiSerial { devices, baudrate: a.baudrate }, a.common)
             }
             TransportCommand::Pseudoterminal(a) => (Transport::PseudoTerminal { baudrate: a.baudrate }, a.common),
@@ -493,6 +508,7 @@ impl Cli {
             verbosity: common.verbose,
             discovery: common.discovery,
             p2p: common.p2p,
+            flow_control,
             ros_graph: common.ros_graph,
             dds_engine: common.dds_engine,
             eager_participant: common.eager_participant == OnOff::On,
@@ -608,6 +624,7 @@ mod tests {
                 verbosity: 4,
                 discovery: None,
                 p2p: None,
+                flow_control: false,
                 ros_graph: RosGraph::On,
                 dds_engine: None,
                 eager_participant: true,

@@ -57,9 +57,10 @@ fn to_io(e: nix::Error) -> io::Error {
     io::Error::from(e)
 }
 
-/// Raw mode (no echo, no line discipline, 8N1, no flow control) at `baud` for the terminal open as `fd`:
-/// any rate its driver takes, not only the standard ones.
-fn make_raw(fd: impl AsFd, baud: u32) -> io::Result<()> {
+/// Raw mode (no echo, no line discipline, 8N1) at `baud` for the terminal open as `fd`: any rate its driver
+/// takes, not only the standard ones; RTS/CTS hardware flow control when `rts_cts` (the line then waits for
+/// CTS before sending, as flight controllers' UARTs wired for it expect).
+fn make_raw(fd: impl AsFd, baud: u32, rts_cts: bool) -> io::Result<()> {
     let path = nix::unistd::ttyname(fd).map_err(to_io)?;
     let path = path.to_str().ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "device path is not UTF-8"))?;
     // Shared, not exclusive: a client must still be able to open a pseudoterminal's slave side. The port is
@@ -68,7 +69,7 @@ fn make_raw(fd: impl AsFd, baud: u32) -> io::Result<()> {
         .data_bits(serialport::DataBits::Eight)
         .parity(serialport::Parity::None)
         .stop_bits(serialport::StopBits::One)
-        .flow_control(serialport::FlowControl::None)
+        .flow_control(if rts_cts { serialport::FlowControl::Hardware } else { serialport::FlowControl::None })
         .exclusive(false)
         .open_native()?;
     drop(port);
@@ -83,15 +84,15 @@ fn set_nonblocking(file: &File) -> io::Result<()> {
 }
 
 impl Line {
-    /// Opens a serial device in raw mode at `baud`.
-    pub fn open(path: &Path, baud: u32) -> io::Result<Self> {
+    /// Opens a serial device in raw mode at `baud`, with RTS/CTS flow control when `rts_cts`.
+    pub fn open(path: &Path, baud: u32, rts_cts: bool) -> io::Result<Self> {
         use std::os::unix::fs::OpenOptionsExt;
         let file = std::fs::OpenOptions::new()
             .read(true)
             .write(true)
             .custom_flags(nix::fcntl::OFlag::O_NOCTTY.bits())
             .open(path)?;
-        make_raw(&file, baud)?;
+        make_raw(&file, baud, rts_cts)?;
         set_nonblocking(&file)?;
         Ok(Self { file, name: path.display().to_string(), _slave: None })
     }
@@ -99,7 +100,7 @@ impl Line {
     /// Creates a pseudoterminal; clients open [`Self::name`] (the slave side).
     pub fn pseudoterminal(baud: u32) -> io::Result<Self> {
         let pty = nix::pty::openpty(None, None).map_err(to_io)?;
-        make_raw(&pty.slave, baud)?;
+        make_raw(&pty.slave, baud, false)?;
         let name = nix::unistd::ttyname(&pty.slave).map_err(to_io)?;
         let file = File::from(pty.master);
         set_nonblocking(&file)?;
@@ -344,7 +345,7 @@ mod tests {
         let t = thread::spawn(move || server.run(&s2));
 
         let mut client = std::fs::OpenOptions::new().read(true).write(true).open(&path).unwrap();
-        make_raw(&client, 115_200).unwrap();
+        make_raw(&client, 115_200, false).unwrap();
         // Header 80 00 00 00 + GET_INFO {request 00 0A, object FF FD, mask 2} (a ping, spec §14.2).
         let ping = [0x80, 0, 0, 0, 0x02, 0x01, 0x08, 0x00, 0x00, 0x0A, 0xFF, 0xFD, 0x02, 0, 0, 0];
         let mut frame = vec![0u8; max_encoded_len(ping.len())];
@@ -388,12 +389,32 @@ mod tests {
         for baud in [250_000, 1_000_000, 123_457] {
             let line = Line::pseudoterminal(baud).unwrap();
             assert!(is_custom(line._slave.as_ref().unwrap()), "{baud}");
-            let device = Line::open(&line.path(), baud).unwrap();
+            let device = Line::open(&line.path(), baud, false).unwrap();
             assert_eq!(device.name(), line.name());
         }
         let mut agent =
             crate::agent::AgentInstance::create(["xrce-agent", "pseudoterminal", "-b", "250000", "-m", "ced"])
                 .expect("a pseudoterminal at 250000 baud");
+        agent.stop().unwrap();
+    }
+
+    /// `--flow-control` sets RTS/CTS on the line (CRTSCTS; a pseudoterminal keeps the flag, though nothing
+    /// drives its lines), and lines open without it by default.
+    #[test]
+    fn rts_cts_flow_control_is_set_when_asked() {
+        let rts_cts = |line: &Line| {
+            let t = nix::sys::termios::tcgetattr(&line.file).unwrap();
+            t.control_flags.contains(nix::sys::termios::ControlFlags::CRTSCTS)
+        };
+        let pty = Line::pseudoterminal(115_200).unwrap();
+        assert!(!rts_cts(&Line::open(&pty.path(), 115_200, false).unwrap()), "off by default");
+        assert!(rts_cts(&Line::open(&pty.path(), 115_200, true).unwrap()), "on when asked");
+        let path = pty.path();
+        let path = path.to_str().unwrap();
+        let mut agent =
+            crate::agent::AgentInstance::create(["xrce-agent", "serial", "--dev", path, "--flow-control", "-m", "ced"])
+                .expect("a serial agent with flow control");
+        assert!(agent.config().flow_control);
         agent.stop().unwrap();
     }
 }
