@@ -105,6 +105,17 @@ pub struct Connection<E> {
     pub(super) delete_request: Option<(BaseObjectRequest, MessageHeader)>,
     /// Set while its read tasks are served: reliable DATA waits to be packed several per message.
     pub(super) pumping: bool,
+    /// In the endpoint's lists of clients owing ACKNACKs, with read tasks, with held input: kept here so a
+    /// turn checks membership without scanning the lists (thousands of subscribers read at once).
+    pub(super) listed: Listed,
+}
+
+/// Which of the endpoint's client lists a connection is in.
+#[derive(Debug, Default, Clone, Copy)]
+pub(super) struct Listed {
+    pub acking: bool,
+    pub reading: bool,
+    pub blocked: bool,
 }
 
 /// What a timer turn decided about the connection.
@@ -140,6 +151,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             timer_queued: None,
             delete_request: None,
             pumping: false,
+            listed: Listed::default(),
         }
     }
 
@@ -217,18 +229,18 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
 
     fn fire_probes<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) {
         let period = ctx.config.heartbeat_period;
-        let mut beats: [Option<xrce_proto::submessage::Heartbeat>; 4] = [None; 4];
-        let mut n = 0;
-        for (sid, out) in self.streams.rel_out.iter_mut() {
-            let Some(due) = out.probe_due().filter(|due| *due <= now) else { continue };
-            // A stream re-arms its probe itself when `fire_probe` says so.
-            let (beat, _) = out.fire_probe(*sid, due, now, period);
-            if let (Some(hb), Some(slot)) = (beat, beats.get_mut(n)) {
-                *slot = Some(hb);
-                n += 1;
-            }
-        }
-        for hb in beats.into_iter().flatten() {
+        // Collected first: sending needs the connection, which the streams borrow. A stream re-arms its probe
+        // itself when `fire_probe` says so.
+        let beats: Vec<_> = self
+            .streams
+            .rel_out
+            .iter_mut()
+            .filter_map(|(sid, out)| {
+                let due = out.probe_due().filter(|due| *due <= now)?;
+                out.fire_probe(*sid, due, now, period).0
+            })
+            .collect();
+        for hb in beats {
             ctx.stats.tail_probes = ctx.stats.tail_probes.saturating_add(1);
             self.send_control(ctx, &Submessage::Heartbeat(hb));
         }
@@ -265,19 +277,17 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 self.send_control(ctx, &Submessage::GetInfo(probe));
             }
         } else {
-            let mut beats: [Option<xrce_proto::submessage::Heartbeat>; 4] = [None; 4];
-            let mut n = 0;
-            for (sid, stream) in self.streams.rel_out.iter_mut() {
-                stream.trim();
-                if let Some(hb) = stream.heartbeat(*sid) {
-                    again = true;
-                    if let Some(slot) = beats.get_mut(n) {
-                        *slot = Some(hb);
-                        n += 1;
-                    }
-                }
-            }
-            for hb in beats.into_iter().flatten() {
+            let beats: Vec<_> = self
+                .streams
+                .rel_out
+                .iter_mut()
+                .filter_map(|(sid, stream)| {
+                    stream.trim();
+                    stream.heartbeat(*sid)
+                })
+                .collect();
+            again |= !beats.is_empty();
+            for hb in beats {
                 self.send_control(ctx, &Submessage::Heartbeat(hb));
             }
         }

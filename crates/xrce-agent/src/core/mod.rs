@@ -272,7 +272,9 @@ where
         while let Some(key) = self.acking.pop_front() {
             let Some(client) = self.clients.get_mut(&key) else { continue };
             let ack = client.next_acknack(&mut self.pool);
-            if !client.acks_due.is_empty() {
+            if client.acks_due.is_empty() {
+                client.listed.acking = false;
+            } else {
                 self.acking.push_back(key);
             }
             if let (Some(data), Some(to)) = (ack, client.endpoint) {
@@ -406,13 +408,16 @@ where
                 self.turns.enlist(key, &mut client.outbox, class);
             }
         }
-        if !client.acks_due.is_empty() && !self.acking.contains(&key) {
+        if !client.acks_due.is_empty() && !client.listed.acking {
+            client.listed.acking = true;
             self.acking.push_back(key);
         }
-        if !client.reads.is_empty() && !self.reading.contains(&key) {
+        if !client.reads.is_empty() && !client.listed.reading {
+            client.listed.reading = true;
             self.reading.push(key);
         }
-        if !client.blocked.is_empty() && !self.blocked.contains(&key) {
+        if !client.blocked.is_empty() && !client.listed.blocked {
+            client.listed.blocked = true;
             self.blocked.push(key);
         }
         if retry {
@@ -451,8 +456,15 @@ where
     fn serve_readers(&mut self, now: Instant) {
         self.unserved_writes = None;
         for _ in 0..4 {
-            let clients = &self.clients;
-            self.reading.retain(|k| clients.get(k).is_some_and(|c| !c.reads.is_empty()));
+            let clients = &mut self.clients;
+            self.reading.retain(|k| match clients.get_mut(k) {
+                Some(c) if !c.reads.is_empty() => true,
+                Some(c) => {
+                    c.listed.reading = false;
+                    false
+                }
+                None => false,
+            });
             for i in 0..self.reading.len() {
                 let Some(&key) = self.reading.get(i) else { break };
                 let (mut ctx, client) = self.ctx_for(key);
@@ -468,6 +480,7 @@ where
             for key in std::mem::take(&mut self.blocked) {
                 let (mut ctx, client) = self.ctx_for(key);
                 let Some(client) = client else { continue };
+                client.listed.blocked = false;
                 client.retry_blocked(&mut ctx, now);
                 wrote |= ctx.writes > 0;
                 self.after_turn(key, false);
