@@ -73,8 +73,11 @@ impl SessionEvent {
 /// Events not polled yet, oldest first (as codes, 0 = none); the oldest is dropped when full.
 const EVENTS: usize = 4;
 
-/// "No probe unanswered".
+/// "No probe unanswered", "no agent seen".
 const NONE: i64 = i64::MIN;
+
+/// How long an in-session answer may follow an out-of-session one.
+const GRACE: i64 = 200 * MILLIS;
 
 #[derive(Debug)]
 pub(super) struct Liveness {
@@ -89,6 +92,11 @@ pub(super) struct Liveness {
     pub(super) second_ping_due: bool,
     /// A CREATE_CLIENT is under way as part of a reconnection.
     pub(super) recreating: bool,
+    /// When an agent answered outside the session while reconnecting ([`NONE`]: not yet). The session is
+    /// created again only if no answer in the session follows within [`GRACE`]: an agent may answer outside
+    /// the session sooner than inside (ours does), and re-creating a session the agent kept would restart its
+    /// streams for nothing.
+    agent_seen: i64,
     events: [u8; EVENTS],
 }
 
@@ -103,6 +111,7 @@ impl Liveness {
             retry_ms: 0,
             second_ping_due: false,
             recreating: false,
+            agent_seen: NONE,
             events: [0; EVENTS],
         }
     }
@@ -143,6 +152,19 @@ impl Liveness {
         self.unanswered_since = NONE;
         self.recreating = false;
         self.second_ping_due = false;
+        self.agent_seen = NONE;
+    }
+
+    /// While reconnecting: an agent answered outside the session.
+    pub(super) fn agent_seen(&mut self, now: i64) {
+        if self.agent_seen == NONE {
+            self.agent_seen = now;
+        }
+    }
+
+    /// While reconnecting: whether the agent seen outside the session stayed silent inside it for [`GRACE`].
+    pub(super) fn recreate_due(&self, now: i64) -> bool {
+        self.agent_seen != NONE && now - self.agent_seen >= GRACE
     }
 
     /// While reconnecting: whether an attempt is due now (and, if so, schedules the next one).
@@ -161,7 +183,8 @@ impl Liveness {
     pub(super) fn timeout(&self, established: bool, reconnecting: bool) -> Option<i64> {
         let c = self.config?;
         if reconnecting {
-            return Some(self.due);
+            let seen = if self.agent_seen == NONE { i64::MAX } else { self.agent_seen + GRACE };
+            return Some(self.due.min(seen));
         }
         if !established {
             return None;

@@ -577,9 +577,9 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     pub fn handle_input<C: Callbacks + ?Sized>(&mut self, msg: &[u8], now: i64, cb: &mut C) {
         let Ok((header, hs)) = MessageHeader::decode(msg) else { return };
         if header.session_id & 0x7F == 0 && self.st.state == SessionState::Reconnecting {
-            // An answer outside the session: an agent is there, and it did not answer in the session first.
+            // An answer outside the session: an agent is there; unless it answers in the session too, it lost us.
             if first_info(msg, hs).is_some() {
-                recreate(&mut self.st, now);
+                self.st.live.agent_seen(now);
             }
             return;
         }
@@ -677,9 +677,10 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                     return encode_single(out, &header, &Submessage::Delete(req), Endianness::Little).ok();
                 }
                 (SessionState::Creating, None) if st.live.recreating => {
+                    // The agent went again before answering: back to the attempts.
                     st.session_retry = None;
                     st.state = SessionState::Reconnecting;
-                    st.live.recreating = false;
+                    st.live.start_attempts(now);
                 }
                 (SessionState::Creating, None) => {
                     st.state = SessionState::CreateTimedOut;
@@ -815,6 +816,7 @@ fn lose<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_,
 /// An agent answers but does not hold the session: create it again, same key and id.
 fn recreate<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
     st.state = SessionState::Creating;
+    st.live.start_attempts(now);
     st.live.recreating = true;
     let period = i64::from(st.live.config.map_or(1000, |c| c.retry_max_ms.max(1))) * MILLIS;
     st.session_retry = Some(Retry { attempts_left: 3, next: now, period });
@@ -831,6 +833,10 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
         let Some(s) = s.as_mut() else { continue };
         let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
         while s.poll_transmit(st.session_id, st.key, stream, out).is_some() {}
+    }
+    if st.live.recreate_due(now) {
+        recreate(st, now);
+        return None;
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);
@@ -890,6 +896,7 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                 } else if recreated {
                     // Refused for now (the agent is full, say): keep trying.
                     st.state = SessionState::Reconnecting;
+                    st.live.start_attempts(now);
                 } else {
                     st.state = SessionState::Refused(s.result.status.0);
                 }
