@@ -2,7 +2,7 @@
 //! family with the semantics the C API documents.
 
 #[cfg(feature = "std")]
-use super::replay::{Item, Replay};
+use super::replay::{Replay, Unacked};
 use super::{
     Callbacks, Outputs, PingState, Reconnect, SessionCore, SessionEvent, SessionState, TimeSample, MILLIS,
     SESSION_CONNECTION_INTERVAL_MS,
@@ -171,11 +171,11 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         core: &mut SessionCore<'_, A, B, C, D>,
     ) {
         let streams: Vec<_> = core.reliable_output_streams().collect();
-        let mut taken = Vec::new();
+        let mut unacked = Unacked::default();
         for s in streams {
-            let _ = core.take_reliable_output(s, |body, frag| taken.push(Item::Message(s, body.to_vec(), frag)));
+            let _ = core.take_reliable_output(s, |body, _| unacked.message(s, body));
         }
-        self.replay.start(taken);
+        self.replay.start(unacked.items);
     }
 
     /// Writes what the replay still holds, running the session while the histories are full, until all is
@@ -188,10 +188,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
     ) -> Result<()> {
         while !self.replay.pending.is_empty() && core.state() == SessionState::Established {
             while let Some(item) = self.replay.pending.front() {
-                let written = match item {
-                    Item::Submessage(stream, bytes) => core.outputs().write_parts(*stream, &[bytes]),
-                    Item::Message(stream, body, frag) => core.restore_reliable_output(*stream, body, *frag),
-                };
+                let written = core.outputs().write_parts(item.stream, &[&item.bytes]);
                 if written == Err(Error::WouldBlock) {
                     break;
                 }

@@ -84,19 +84,17 @@ pub(super) struct Liveness {
     pub(super) config: Option<Reconnect>,
     /// Established: when the next probe is due. Reconnecting: when the next attempt is.
     due: i64,
-    /// Send time of the oldest unanswered probe, or [`NONE`].
-    unanswered_since: i64,
+    /// Established: send time of the oldest unanswered probe. Reconnecting: when an agent answered outside the
+    /// session (the session is created again only if no answer in the session follows within [`GRACE`]: an
+    /// agent may answer outside the session sooner than inside, ours does, and re-creating a session the agent
+    /// kept would restart its streams for nothing). [`NONE`] otherwise.
+    since: i64,
     /// Wait after the next attempt, in milliseconds.
     retry_ms: u16,
     /// The out-of-session GET_INFO of the current attempt is still to be sent.
     pub(super) second_ping_due: bool,
     /// A CREATE_CLIENT is under way as part of a reconnection.
     pub(super) recreating: bool,
-    /// When an agent answered outside the session while reconnecting ([`NONE`]: not yet). The session is
-    /// created again only if no answer in the session follows within [`GRACE`]: an agent may answer outside
-    /// the session sooner than inside (ours does), and re-creating a session the agent kept would restart its
-    /// streams for nothing.
-    agent_seen: i64,
     events: [u8; EVENTS],
 }
 
@@ -107,18 +105,17 @@ impl Liveness {
         Self {
             config: None,
             due: 0,
-            unanswered_since: NONE,
+            since: NONE,
             retry_ms: 0,
             second_ping_due: false,
             recreating: false,
-            agent_seen: NONE,
             events: [0; EVENTS],
         }
     }
 
     /// Something came from the agent for this session.
     pub(super) fn heard(&mut self, now: i64) {
-        self.unanswered_since = NONE;
+        self.since = NONE;
         if let Some(c) = self.config {
             self.due = now + Reconnect::ns(c.probe_after_ms);
         }
@@ -127,7 +124,7 @@ impl Liveness {
     /// While established: whether the session is lost now.
     pub(super) fn lost(&self, now: i64) -> bool {
         match self.config {
-            Some(c) if self.unanswered_since != NONE => now - self.unanswered_since >= Reconnect::ns(c.lost_after_ms),
+            Some(c) if self.since != NONE => now - self.since >= Reconnect::ns(c.lost_after_ms),
             _ => false,
         }
     }
@@ -138,8 +135,8 @@ impl Liveness {
         if now < self.due {
             return false;
         }
-        if self.unanswered_since == NONE {
-            self.unanswered_since = now;
+        if self.since == NONE {
+            self.since = now;
         }
         self.due = now + Reconnect::ns(c.probe_after_ms);
         true
@@ -149,22 +146,21 @@ impl Liveness {
     pub(super) fn start_attempts(&mut self, now: i64) {
         self.retry_ms = self.config.map_or(100, |c| c.retry_min_ms.max(1));
         self.due = now;
-        self.unanswered_since = NONE;
+        self.since = NONE;
         self.recreating = false;
         self.second_ping_due = false;
-        self.agent_seen = NONE;
     }
 
     /// While reconnecting: an agent answered outside the session.
     pub(super) fn agent_seen(&mut self, now: i64) {
-        if self.agent_seen == NONE {
-            self.agent_seen = now;
+        if self.since == NONE {
+            self.since = now;
         }
     }
 
     /// While reconnecting: whether the agent seen outside the session stayed silent inside it for [`GRACE`].
     pub(super) fn recreate_due(&self, now: i64) -> bool {
-        self.agent_seen != NONE && now - self.agent_seen >= GRACE
+        self.since != NONE && now - self.since >= GRACE
     }
 
     /// While reconnecting: whether an attempt is due now (and, if so, schedules the next one).
@@ -183,17 +179,13 @@ impl Liveness {
     pub(super) fn timeout(&self, established: bool, reconnecting: bool) -> Option<i64> {
         let c = self.config?;
         if reconnecting {
-            let seen = if self.agent_seen == NONE { i64::MAX } else { self.agent_seen + GRACE };
+            let seen = if self.since == NONE { i64::MAX } else { self.since + GRACE };
             return Some(self.due.min(seen));
         }
         if !established {
             return None;
         }
-        let lost = if self.unanswered_since == NONE {
-            i64::MAX
-        } else {
-            self.unanswered_since + Reconnect::ns(c.lost_after_ms)
-        };
+        let lost = if self.since == NONE { i64::MAX } else { self.since + Reconnect::ns(c.lost_after_ms) };
         Some(self.due.min(lost))
     }
 

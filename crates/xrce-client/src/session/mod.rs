@@ -497,7 +497,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     }
 
     /// Hands the messages of reliable output stream `stream` not acknowledged yet to `visit`, in order (bytes
-    /// after the message header, and whether the message ends with a FRAGMENT), and empties the stream. After a
+    /// after the message header, and whether the message ends with a FRAGMENT), and empties the stream, whose
+    /// numbering restarts at 0 (so use it right after a re-creation, before anything is sent). After a
     /// re-creation ([`SessionEvent::Restored`] with `recreated`) they are already renumbered from 0 and would go
     /// out as they are; taking them out lets the caller send the entity creations first, then give them back
     /// with [`restore_reliable_output`](Self::restore_reliable_output).
@@ -659,6 +660,9 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// write and every timeout. `out` should hold the MTU.
     pub fn poll_transmit(&mut self, now: i64, out: &mut [u8]) -> Option<usize> {
         let st = &mut self.st;
+        if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {
+            recreate(st, now);
+        }
         // Session creation and deletion.
         if let Some(retry) = st.session_retry.as_mut() {
             match (st.state, retry.due(now)) {
@@ -833,10 +837,6 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
         let Some(s) = s.as_mut() else { continue };
         let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
         while s.poll_transmit(st.session_id, st.key, stream, out).is_some() {}
-    }
-    if st.live.recreate_due(now) {
-        recreate(st, now);
-        return None;
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);

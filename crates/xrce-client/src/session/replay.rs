@@ -25,13 +25,13 @@ struct Sent {
     bytes: Vec<u8>,
 }
 
-/// Something to write after a re-creation.
+/// A submessage to write (header included) after a re-creation, and the stream it goes on.
 #[derive(Debug)]
-pub(super) enum Item {
-    /// A submessage (a CREATE with REUSE, a READ_DATA) for this stream.
-    Submessage(StreamId, Vec<u8>),
-    /// A message of a reliable output stream that the agent did not acknowledge, as taken from the stream.
-    Message(StreamId, Vec<u8>, bool),
+pub(super) struct Item {
+    pub(super) stream: StreamId,
+    pub(super) bytes: Vec<u8>,
+    /// Taken from the unacknowledged output (not a recorded creation or read).
+    pub(super) taken: bool,
 }
 
 /// The entities and reads seen leaving, and what is still to be written after a re-creation.
@@ -143,23 +143,59 @@ impl Replay {
     }
 
     /// After a re-creation: the entity creations (with REUSE, so an agent that kept them answers OK_MATCHED and
-    /// keeps them), then the reads, then the unacknowledged messages `taken` from the streams, then whatever
+    /// keeps them), then the reads, then the unacknowledged submessages `taken` from the streams, then whatever
     /// an interrupted replay still had to give back.
     pub(super) fn start(&mut self, taken: Vec<Item>) {
         self.last_seq.clear();
         self.fragments.clear();
-        let leftover: Vec<Item> = self.pending.drain(..).filter(|i| matches!(i, Item::Message(..))).collect();
+        let leftover: Vec<Item> = self.pending.drain(..).filter(|i| i.taken).collect();
         for e in &self.entities {
             let mut bytes = e.bytes.clone();
             if let Some(flags) = bytes.get_mut(1) {
                 *flags |= REUSE;
             }
-            self.pending.push_back(Item::Submessage(e.stream, bytes));
+            self.pending.push_back(Item { stream: e.stream, bytes, taken: false });
         }
         for r in &self.reads {
-            self.pending.push_back(Item::Submessage(r.stream, r.bytes.clone()));
+            self.pending.push_back(Item { stream: r.stream, bytes: r.bytes.clone(), taken: false });
         }
         self.pending.extend(taken);
         self.pending.extend(leftover);
+    }
+}
+
+/// The submessages of the unacknowledged messages of `stream` (as [`SessionCore::take_reliable_output`] gives
+/// them), fragmented ones reassembled, without the CREATEs and READ_DATAs: the replay sends those already, in
+/// their latest form; sent again after it, an unacknowledged CREATE with REPLACE would replace the entity just
+/// re-created (and drop a reader's read).
+///
+/// [`SessionCore::take_reliable_output`]: super::SessionCore::take_reliable_output
+#[derive(Debug, Default)]
+pub(super) struct Unacked {
+    fragments: Vec<u8>,
+    pub(super) items: Vec<Item>,
+}
+
+impl Unacked {
+    /// One taken message (its bytes after the header).
+    pub(super) fn message(&mut self, stream: StreamId, body: &[u8]) {
+        for raw in Submessages::new(body, 0).map_while(Result::ok) {
+            if raw.header.id == id::FRAGMENT {
+                self.fragments.extend_from_slice(raw.payload());
+                if raw.header.flags & flag::LAST_FRAGMENT != 0 {
+                    let whole = std::mem::take(&mut self.fragments);
+                    self.keep(stream, &whole);
+                }
+            } else {
+                let bytes = raw.message.get(raw.start.saturating_sub(4)..raw.end).unwrap_or(&[]);
+                self.keep(stream, bytes);
+            }
+        }
+    }
+
+    fn keep(&mut self, stream: StreamId, submessage: &[u8]) {
+        if !matches!(submessage.first(), Some(&(id::CREATE | id::READ_DATA)) | None) {
+            self.items.push(Item { stream, bytes: submessage.to_vec(), taken: true });
+        }
     }
 }
