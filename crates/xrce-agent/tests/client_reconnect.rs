@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use xrce_agent::agent::{AgentHandle, AgentInstance};
 use xrce_agent::middleware::callbacks::CallbackKind;
 use xrce_client::prelude::*;
+use xrce_client::TransportError;
 
 const HISTORY: usize = 16;
 const BUF: usize = 512 * HISTORY;
@@ -25,10 +26,14 @@ const READER_XML: &str = "<dds><data_reader><topic><kind>NO_KEY</kind><name>Reco
                           <dataType>Counter</dataType></topic></data_reader></dds>";
 
 fn agent_on(port: u16) -> AgentInstance {
+    agent_over("udp4", port)
+}
+
+fn agent_over(transport: &str, port: u16) -> AgentInstance {
     let port = port.to_string();
     // The port was just freed by the previous instance; binding again may take a moment on a busy machine.
-    for _ in 0..50 {
-        if let Ok(a) = AgentInstance::create(["xrce-agent", "udp4", "-p", &port, "-m", "ced", "-v", "0"]) {
+    for _ in 0..100 {
+        if let Ok(a) = AgentInstance::create(["xrce-agent", transport, "-p", &port, "-m", "ced", "-v", "0"]) {
             return a;
         }
         thread::sleep(Duration::from_millis(20));
@@ -38,6 +43,10 @@ fn agent_on(port: u16) -> AgentInstance {
 
 fn free_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+fn free_tcp_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
 /// When the session was lost and restored, as the callbacks saw it.
@@ -77,18 +86,54 @@ impl Callbacks for App {
     }
 }
 
-type Client<'a> = Session<'a, UdpTransport, StdClock, App, 1, 1, 1, 1, 512>;
+/// How a client reaches the agent.
+#[derive(Debug, Clone, Copy)]
+enum Link {
+    Udp(SocketAddr),
+    Tcp(SocketAddr),
+}
+
+/// The transport of a [`Link`].
+enum Conn {
+    Udp(UdpTransport),
+    Tcp(TcpTransport),
+}
+
+impl Transport for Conn {
+    fn open(&mut self) -> Result<(), TransportError> {
+        match self {
+            Self::Udp(t) => t.open(),
+            Self::Tcp(t) => t.open(),
+        }
+    }
+    fn send(&mut self, msg: &[u8]) -> Result<(), TransportError> {
+        match self {
+            Self::Udp(t) => t.send(msg),
+            Self::Tcp(t) => t.send(msg),
+        }
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
+        match self {
+            Self::Udp(t) => t.recv(buf, timeout_ms),
+            Self::Tcp(t) => t.recv(buf, timeout_ms),
+        }
+    }
+}
+
+impl Link {
+    fn connect(self) -> Conn {
+        match self {
+            Self::Udp(a) => Conn::Udp(UdpTransport::connect(a).unwrap()),
+            Self::Tcp(a) => Conn::Tcp(TcpTransport::connect(a).unwrap()),
+        }
+    }
+}
+
+type Client<'a> = Session<'a, Conn, StdClock, App, 1, 1, 1, 1, 512>;
 
 /// Session, reliable streams and the participant/topic of a client.
-fn setup<'a>(
-    agent: SocketAddr,
-    key: u32,
-    app: App,
-    out: &'a mut [u8],
-    inp: &'a mut [u8],
-) -> (Client<'a>, StreamId, StreamId) {
-    let transport = UdpTransport::connect(agent).unwrap();
-    let mut s: Client<'a> = Session::new(transport, key).with_callbacks(app);
+fn setup<'a>(link: Link, key: u32, app: App, out: &'a mut [u8], inp: &'a mut [u8]) -> (Client<'a>, StreamId, StreamId) {
+    let mut s: Client<'a> = Session::new(link.connect(), key).with_callbacks(app);
     s.create_session().unwrap();
     let rel_out = s.create_output_reliable_stream(out, HISTORY).unwrap();
     let rel_in = s.create_input_reliable_stream(inp, HISTORY).unwrap();
@@ -105,7 +150,7 @@ fn setup<'a>(
 /// A reliable publisher of `index` samples at `rate_hz` until `stop`; every sample is written (retried on
 /// `WouldBlock`; after an outage the backlog goes as fast as the history allows). `published` counts them.
 fn publisher(
-    agent: SocketAddr,
+    agent: Link,
     key: u32,
     rate_hz: u32,
     stop: Arc<AtomicBool>,
@@ -153,7 +198,7 @@ fn publisher(
 }
 
 /// A subscriber asking for every sample on its reliable input stream, until `stop`.
-fn subscriber(agent: SocketAddr, key: u32, stop: Arc<AtomicBool>) -> (App, JoinHandle<()>) {
+fn subscriber(agent: Link, key: u32, stop: Arc<AtomicBool>) -> (App, JoinHandle<()>) {
     let app = App::default();
     let shared = app.clone();
     let handle = thread::spawn(move || {
@@ -204,9 +249,19 @@ fn lost_and_duplicated(samples: &[(u32, Instant)], range: std::ops::Range<u32>) 
 /// notice, re-create their sessions and entities, and delivery resumes without any application code.
 #[test]
 fn agent_restart_under_load() {
-    let port = free_port();
-    let agent: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
-    let mut instance = agent_on(port);
+    restart_under_load("udp4", free_port());
+}
+
+/// The same over TCP: the connection breaks, the client connects again until the new agent accepts.
+#[test]
+fn agent_restart_under_load_over_tcp() {
+    restart_under_load("tcp4", free_tcp_port());
+}
+
+fn restart_under_load(transport: &str, port: u16) {
+    let addr: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
+    let agent = if transport == "tcp4" { Link::Tcp(addr) } else { Link::Udp(addr) };
+    let mut instance = agent_over(transport, port);
     let stop_pub = Arc::new(AtomicBool::new(false));
     let stop_sub = Arc::new(AtomicBool::new(false));
     let published = Arc::new(AtomicU32::new(0));
@@ -218,11 +273,11 @@ fn agent_restart_under_load() {
         "no flow before the restart"
     );
 
-    instance.stop().unwrap();
     let killed = Instant::now();
+    instance.stop().unwrap();
     let before = sub.samples.lock().unwrap().len();
     thread::sleep(Duration::from_secs(3));
-    let mut instance = agent_on(port);
+    let mut instance = agent_over(transport, port);
     let restarted = Instant::now();
     let resumed =
         wait_for(|| sub.samples.lock().unwrap().iter().any(|(_, t)| *t >= restarted), Duration::from_secs(15));
@@ -243,7 +298,7 @@ fn agent_restart_under_load() {
     let lost_at = pub_timeline.first("lost", killed).map(|t| t - killed);
     let recreated_at = pub_timeline.first("recreated", restarted).map(|t| t - restarted);
     println!(
-        "agent restart: {total} published, {} received ({before} before the stop); publisher lost after {lost_at:?}, \
+        "agent restart ({transport}): {total} published, {} received ({before} before the stop); publisher lost after {lost_at:?}, \
          re-created {recreated_at:?} after the restart; first sample delivered {:?} after the restart (index {}); \
          {} lost, {} duplicated",
         samples.len(),
@@ -329,9 +384,10 @@ fn link_cut_for_five_seconds() {
     let stop_pub = Arc::new(AtomicBool::new(false));
     let stop_sub = Arc::new(AtomicBool::new(false));
     let published = Arc::new(AtomicU32::new(0));
-    let (sub, sub_thread) = subscriber(proxy.addr, 0x5AB0_0011, stop_sub.clone());
+    let (sub, sub_thread) = subscriber(Link::Udp(proxy.addr), 0x5AB0_0011, stop_sub.clone());
     thread::sleep(Duration::from_millis(300));
-    let (pub_timeline, pub_thread) = publisher(proxy.addr, 0x5AB0_0012, 1000, stop_pub.clone(), published.clone());
+    let (pub_timeline, pub_thread) =
+        publisher(Link::Udp(proxy.addr), 0x5AB0_0012, 1000, stop_pub.clone(), published.clone());
     assert!(wait_for(|| sub.samples.lock().unwrap().len() > 1000, Duration::from_secs(20)), "no flow before the cut");
     let before = sub.samples.lock().unwrap().len();
     proxy.cut.store(true, Ordering::Relaxed);

@@ -121,7 +121,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
     /// Reopens a failed transport when it is time.
     fn reopen<const A: usize, const B: usize, const C: usize, const D: usize>(
         &mut self,
-        core: &SessionCore<'_, A, B, C, D>,
+        core: &mut SessionCore<'_, A, B, C, D>,
     ) {
         let now = self.clock.now_nanos();
         if !self.broken() || now < self.reopen_at {
@@ -130,6 +130,8 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         let _ = self.transport.close();
         if self.transport.open().is_ok() {
             self.reopen_at = WORKING;
+            // Try the agent at once rather than at the next attempt of the back-off.
+            core.reconnect(now);
         } else {
             let max = core.reconnect_config().map_or(1000, |c| c.retry_max_ms.max(1));
             self.reopen_at = now + i64::from(self.reopen_ms) * MILLIS;

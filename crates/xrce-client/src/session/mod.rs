@@ -477,11 +477,17 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         self.st.live.config
     }
 
-    /// Counts the session as lost now (a transport error, say) and starts reconnection attempts. Does nothing
-    /// unless the session is established, or with reconnection off.
+    /// Counts the session as lost now (a transport error, say) and starts reconnection attempts; while already
+    /// reconnecting, makes the next attempt now (the transport just came back, say). Does nothing otherwise, or
+    /// with reconnection off.
     pub fn reconnect(&mut self, now: i64) {
-        if self.st.live.config.is_some() && self.st.state == SessionState::Established {
-            lose(&mut self.st, now);
+        if self.st.live.config.is_none() {
+            return;
+        }
+        match self.st.state {
+            SessionState::Established => lose(&mut self.st, now),
+            SessionState::Reconnecting => self.st.live.start_attempts(now),
+            _ => {}
         }
     }
 
