@@ -96,7 +96,7 @@ enum Link {
 /// The transport of a [`Link`].
 enum Conn {
     Udp(UdpTransport),
-    Tcp(TcpTransport),
+    Tcp(Box<TcpTransport>),
 }
 
 impl Transport for Conn {
@@ -124,7 +124,7 @@ impl Link {
     fn connect(self) -> Conn {
         match self {
             Self::Udp(a) => Conn::Udp(UdpTransport::connect(a).unwrap()),
-            Self::Tcp(a) => Conn::Tcp(TcpTransport::connect(a).unwrap()),
+            Self::Tcp(a) => Conn::Tcp(Box::new(TcpTransport::connect(a).unwrap())),
         }
     }
 }
