@@ -191,11 +191,19 @@ struct Script {
     now: Rc<Cell<i64>>,
     sent: Rc<std::cell::RefCell<Vec<Vec<u8>>>>,
     inbox: Rc<std::cell::RefCell<VecDeque<Vec<u8>>>>,
+    /// Answer every in-session GET_INFO as an agent holding the session does.
+    answer_probes: bool,
 }
 
 impl Transport for Script {
     fn send(&mut self, msg: &[u8]) -> Result<(), TransportError> {
         self.sent.borrow_mut().push(msg.to_vec());
+        let (header, mut subs) = parse(msg).unwrap();
+        let probe = header.session_id == SESSION && subs.next().unwrap().unwrap().header.id == id::GET_INFO;
+        // No answer after 40 messages sent, so that a loop that never stops by itself still ends (and fails).
+        if self.answer_probes && probe && self.sent.borrow().len() < 40 {
+            self.inbox.borrow_mut().push_back(info(SESSION, 1));
+        }
         Ok(())
     }
     fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
@@ -306,4 +314,24 @@ fn taken_output_can_be_given_back_in_order() {
     }
     // Taking restarts the numbering (it is meant for a re-created session, whose streams restart at 0).
     assert_eq!(payloads, [(0, 0), (1, 1), (2, 2)], "given back in order");
+}
+
+/// Answered probes are no messages for the application: `run_session_time`, which returns after a silence of
+/// its timeout, still returns although the agent answers a probe every 300 ms.
+#[test]
+fn answered_probes_do_not_keep_run_session_time_running() {
+    let script = Script { answer_probes: true, ..Script::default() };
+    let clock = {
+        let now = script.now.clone();
+        move || now.get()
+    };
+    let config = Reconnect { probe_after_ms: 300, ..Reconnect::default() };
+    let mut s: Session<'_, Script, _> = Session::with_clock(script.clone(), clock, KEY).with_reconnect(Some(config));
+    script.inbox.borrow_mut().push_back(status_agent());
+    s.create_session().unwrap();
+    let start = script.now.get();
+    s.run_session_time(1000).unwrap();
+    let probes = script.sent.borrow().iter().filter(|m| parse(m).unwrap().0.session_id == SESSION).count();
+    assert!(probes >= 3, "probes sent and answered meanwhile: {probes}");
+    assert!(script.now.get() - start < 2000 * MS, "returned after its 1 s of silence");
 }

@@ -253,7 +253,9 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
                         }
                         self.service(core, h)?;
                         self.send_pending(core)?;
-                        return Ok(true);
+                        if !core.last_input_was_probe_answer() {
+                            return Ok(true);
+                        }
                     }
                     Ok(None) => {}
                     Err(e) => self.failed(core, e)?,

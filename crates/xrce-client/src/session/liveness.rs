@@ -95,6 +95,9 @@ pub(super) struct Liveness {
     pub(super) second_ping_due: bool,
     /// A CREATE_CLIENT is under way as part of a reconnection.
     pub(super) recreating: bool,
+    /// The last input was only the answer to a probe: the blocking loop does not count it as a message (else
+    /// `run_session_time`, which waits for a silence, would never end while probes are answered).
+    pub(super) probe_answer: bool,
     events: [u8; EVENTS],
 }
 
@@ -109,6 +112,7 @@ impl Liveness {
             retry_ms: 0,
             second_ping_due: false,
             recreating: false,
+            probe_answer: false,
             events: [0; EVENTS],
         }
     }

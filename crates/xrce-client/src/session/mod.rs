@@ -497,6 +497,11 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             || (matches!(self.st.state, SessionState::Creating) && self.st.live.recreating)
     }
 
+    /// Whether the last input was only an agent's answer to a liveness probe (nothing for the application).
+    pub const fn last_input_was_probe_answer(&self) -> bool {
+        self.st.live.probe_answer
+    }
+
     /// The next thing that happened to the session ([`SessionEvent::Lost`], [`SessionEvent::Restored`]).
     pub fn poll_event(&mut self) -> Option<SessionEvent> {
         self.st.live.pop()
@@ -582,6 +587,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// Processes one received message, calling `cb` for what it carries.
     pub fn handle_input<C: Callbacks + ?Sized>(&mut self, msg: &[u8], now: i64, cb: &mut C) {
+        self.st.live.probe_answer = false;
         let Ok((header, hs)) = MessageHeader::decode(msg) else { return };
         if header.session_id & 0x7F == 0 && self.st.state == SessionState::Reconnecting {
             // An answer outside the session: an agent is there; unless it answers in the session too, it lost us.
@@ -605,6 +611,9 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 return;
             }
             self.st.live.heard(now);
+            self.st.live.probe_answer = self.st.state == SessionState::Established
+                && self.st.ping != PingState::Pending
+                && first_info(msg, hs).is_some();
             if self.st.state == SessionState::Reconnecting {
                 // The agent still holds the session: it goes on where it was, nothing to create again.
                 self.st.state = SessionState::Established;
