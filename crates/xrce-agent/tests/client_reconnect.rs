@@ -5,7 +5,10 @@
 //! Each test prints what it measured (`--nocapture`); docs/client-api.md quotes the figures.
 
 use std::collections::HashMap;
+use std::fs::File;
+use std::io::{Read, Write};
 use std::net::{SocketAddr, UdpSocket};
+use std::os::fd::AsFd;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
@@ -26,19 +29,21 @@ const READER_XML: &str = "<dds><data_reader><topic><kind>NO_KEY</kind><name>Reco
                           <dataType>Counter</dataType></topic></data_reader></dds>";
 
 fn agent_on(port: u16) -> AgentInstance {
-    agent_over("udp4", port)
+    agent_with(&["udp4", "-p", &port.to_string()])
 }
 
-fn agent_over(transport: &str, port: u16) -> AgentInstance {
-    let port = port.to_string();
-    // The port was just freed by the previous instance; binding again may take a moment on a busy machine.
+/// An agent with `args` and `-m ced`; retried a while, as the port was maybe just freed by the previous one.
+fn agent_with(args: &[&str]) -> AgentInstance {
+    let mut full = vec!["xrce-agent"];
+    full.extend_from_slice(args);
+    full.extend_from_slice(&["-m", "ced", "-v", "0"]);
     for _ in 0..100 {
-        if let Ok(a) = AgentInstance::create(["xrce-agent", transport, "-p", &port, "-m", "ced", "-v", "0"]) {
+        if let Ok(a) = AgentInstance::create(full.iter().copied()) {
             return a;
         }
         thread::sleep(Duration::from_millis(20));
     }
-    panic!("agent cannot bind port {port}");
+    panic!("agent cannot start: {args:?}");
 }
 
 fn free_port() -> u16 {
@@ -87,16 +92,50 @@ impl Callbacks for App {
 }
 
 /// How a client reaches the agent.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 enum Link {
     Udp(SocketAddr),
     Tcp(SocketAddr),
+    /// A custom transport, framed (eProsima's serial framing), over the master side of a pseudoterminal whose
+    /// slave side the agent's serial transport opens.
+    Pty(File),
+}
+
+/// Framed custom-transport callbacks over a pseudoterminal master (non-blocking: while no agent holds the
+/// slave side, writes fail instead of filling the line and blocking).
+struct PtyIo {
+    master: File,
+}
+
+impl CustomIo for PtyIo {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, TransportError> {
+        self.master.write(buf).map_err(|_| TransportError::Custom(1))
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<usize, TransportError> {
+        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+        let ms = u16::try_from(timeout_ms.clamp(1, 1000)).unwrap_or(1000);
+        let mut fds = [PollFd::new(self.master.as_fd(), PollFlags::POLLIN)];
+        match poll(&mut fds, PollTimeout::from(ms)) {
+            Ok(n) if n > 0 => match self.master.read(buf) {
+                Ok(n) => Ok(n),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(0),
+                Err(_) => {
+                    // No agent on the other side (EIO): fail, and do not spin on it.
+                    thread::sleep(Duration::from_millis(u64::from(ms)));
+                    Err(TransportError::Custom(2))
+                }
+            },
+            _ => Ok(0),
+        }
+    }
 }
 
 /// The transport of a [`Link`].
 enum Conn {
     Udp(UdpTransport),
     Tcp(Box<TcpTransport>),
+    Pty(Box<CustomTransport<PtyIo, 512>>),
 }
 
 impl Transport for Conn {
@@ -104,18 +143,21 @@ impl Transport for Conn {
         match self {
             Self::Udp(t) => t.open(),
             Self::Tcp(t) => t.open(),
+            Self::Pty(t) => t.open(),
         }
     }
     fn send(&mut self, msg: &[u8]) -> Result<(), TransportError> {
         match self {
             Self::Udp(t) => t.send(msg),
             Self::Tcp(t) => t.send(msg),
+            Self::Pty(t) => t.send(msg),
         }
     }
     fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
         match self {
             Self::Udp(t) => t.recv(buf, timeout_ms),
             Self::Tcp(t) => t.recv(buf, timeout_ms),
+            Self::Pty(t) => t.recv(buf, timeout_ms),
         }
     }
 }
@@ -125,8 +167,22 @@ impl Link {
         match self {
             Self::Udp(a) => Conn::Udp(UdpTransport::connect(a).unwrap()),
             Self::Tcp(a) => Conn::Tcp(Box::new(TcpTransport::connect(a).unwrap())),
+            Self::Pty(master) => Conn::Pty(Box::new(CustomTransport::new(PtyIo { master }, true).unwrap())),
         }
     }
+}
+
+/// A pseudoterminal: its non-blocking master, and the name of its slave for the agent's `--devs`.
+fn pty() -> (File, String) {
+    let p = nix::pty::openpty(None, None).unwrap();
+    let name = nix::unistd::ttyname(&p.slave).unwrap().display().to_string();
+    let master = File::from(p.master);
+    let flags =
+        nix::fcntl::OFlag::from_bits_truncate(nix::fcntl::fcntl(&master, nix::fcntl::FcntlArg::F_GETFL).unwrap());
+    nix::fcntl::fcntl(&master, nix::fcntl::FcntlArg::F_SETFL(flags | nix::fcntl::OFlag::O_NONBLOCK)).unwrap();
+    // The slave stays open here too (dropped with `p.slave` otherwise): the line survives the agent's restart.
+    std::mem::forget(p.slave);
+    (master, name)
 }
 
 type Client<'a> = Session<'a, Conn, StdClock, App, 1, 1, 1, 1, 512>;
@@ -249,25 +305,35 @@ fn lost_and_duplicated(samples: &[(u32, Instant)], range: std::ops::Range<u32>) 
 /// notice, re-create their sessions and entities, and delivery resumes without any application code.
 #[test]
 fn agent_restart_under_load() {
-    restart_under_load("udp4", free_port());
+    let port = free_port();
+    let addr: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
+    restart_under_load("udp", &["udp4", "-p", &port.to_string()], Link::Udp(addr), Link::Udp(addr));
 }
 
 /// The same over TCP: the connection breaks, the client connects again until the new agent accepts.
 #[test]
 fn agent_restart_under_load_over_tcp() {
-    restart_under_load("tcp4", free_tcp_port());
+    let port = free_tcp_port();
+    let addr: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
+    restart_under_load("tcp", &["tcp4", "-p", &port.to_string()], Link::Tcp(addr), Link::Tcp(addr));
 }
 
-fn restart_under_load(transport: &str, port: u16) {
-    let addr: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
-    let agent = if transport == "tcp4" { Link::Tcp(addr) } else { Link::Udp(addr) };
-    let mut instance = agent_over(transport, port);
+/// The same over serial lines (pseudoterminals), the clients on our framed custom transport.
+#[test]
+fn agent_restart_under_load_over_serial() {
+    let ((sub_master, sub_dev), (pub_master, pub_dev)) = (pty(), pty());
+    let devs = format!("{sub_dev} {pub_dev}");
+    restart_under_load("serial", &["multiserial", "--devs", &devs], Link::Pty(sub_master), Link::Pty(pub_master));
+}
+
+fn restart_under_load(name: &str, args: &[&str], sub_link: Link, pub_link: Link) {
+    let mut instance = agent_with(args);
     let stop_pub = Arc::new(AtomicBool::new(false));
     let stop_sub = Arc::new(AtomicBool::new(false));
     let published = Arc::new(AtomicU32::new(0));
-    let (sub, sub_thread) = subscriber(agent, 0x5AB0_0001, stop_sub.clone());
+    let (sub, sub_thread) = subscriber(sub_link, 0x5AB0_0001, stop_sub.clone());
     thread::sleep(Duration::from_millis(300));
-    let (pub_timeline, pub_thread) = publisher(agent, 0x5AB0_0002, 1000, stop_pub.clone(), published.clone());
+    let (pub_timeline, pub_thread) = publisher(pub_link, 0x5AB0_0002, 1000, stop_pub.clone(), published.clone());
     assert!(
         wait_for(|| sub.samples.lock().unwrap().len() > 1000, Duration::from_secs(20)),
         "no flow before the restart"
@@ -277,7 +343,7 @@ fn restart_under_load(transport: &str, port: u16) {
     instance.stop().unwrap();
     let before = sub.samples.lock().unwrap().len();
     thread::sleep(Duration::from_secs(3));
-    let mut instance = agent_over(transport, port);
+    let mut instance = agent_with(args);
     let restarted = Instant::now();
     let resumed =
         wait_for(|| sub.samples.lock().unwrap().iter().any(|(_, t)| *t >= restarted), Duration::from_secs(15));
@@ -298,7 +364,7 @@ fn restart_under_load(transport: &str, port: u16) {
     let lost_at = pub_timeline.first("lost", killed).map(|t| t - killed);
     let recreated_at = pub_timeline.first("recreated", restarted).map(|t| t - restarted);
     println!(
-        "agent restart ({transport}): {total} published, {} received ({before} before the stop); publisher lost after {lost_at:?}, \
+        "agent restart ({name}): {total} published, {} received ({before} before the stop); publisher lost after {lost_at:?}, \
          re-created {recreated_at:?} after the restart; first sample delivered {:?} after the restart (index {}); \
          {} lost, {} duplicated",
         samples.len(),
