@@ -37,6 +37,10 @@ pub trait Io<E> {
     /// Notes the readiness of one of the shell's sources (never the waker's).
     fn ready(&mut self, event: &Event);
 
+    /// The loop woke without any event (its timer): a shell that skips reads it believes would find
+    /// nothing reads anyway, so a wrong belief costs at most one timer period.
+    fn idle(&mut self) {}
+
     /// Called before the loop blocks: takes, without blocking, input likely to be waiting already (UDP: more
     /// datagrams after a batch); true when it got some, and the next turn then runs at once. This saves a
     /// readiness poll per turn under load.
@@ -259,6 +263,9 @@ where
                 if e.kind() != io::ErrorKind::Interrupted {
                     return Err(e);
                 }
+            }
+            if events.is_empty() {
+                io.idle();
             }
             for event in &events {
                 match event.token() {
