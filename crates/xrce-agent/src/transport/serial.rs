@@ -326,7 +326,6 @@ mod tests {
     use crate::transport::DynMiddleware;
     use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
     use std::sync::atomic::Ordering;
-    use std::sync::Mutex;
     use std::thread;
 
     /// A client on the pseudoterminal's slave side pings the agent (GET_INFO out of session) in a frame from
@@ -335,7 +334,7 @@ mod tests {
     fn pseudoterminal_answers_a_framed_ping() {
         let core =
             AgentCore::new(CoreConfig::default(), Box::new(Ced::new(Arc::new(FallbackProfiles))) as DynMiddleware);
-        let core = Arc::new(Mutex::new(core));
+        let core = SharedCore::new(core);
         let line = Line::pseudoterminal(115_200).unwrap();
         let path = line.path();
         assert!(path.starts_with("/dev/pts"), "{path:?}");
