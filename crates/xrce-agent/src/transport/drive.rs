@@ -141,7 +141,7 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         if c.poll_timeout().is_some_and(|t| t <= now) {
             c.handle_timeout(now);
         }
-        while let Some(t) = c.poll_transmit() {
+        while let Some(t) = c.poll_transmit(now) {
             self.out.push(t);
         }
         let wait = block_for(c.poll_timeout(), now);
