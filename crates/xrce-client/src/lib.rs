@@ -178,9 +178,9 @@ pub mod prelude {
     pub use crate::session::ping::{ping_agent, ping_agent_attempts};
     #[cfg(feature = "std")]
     pub use crate::transport::{discovery, IpProtocol, TcpTransport, UdpTransport};
+    pub use crate::transport::{CustomIo, CustomTransport, Transport};
     #[cfg(all(feature = "serial", unix))]
     pub use crate::transport::{SerialSettings, SerialTransport};
-    pub use crate::transport::{CustomIo, CustomTransport, Transport};
     #[cfg(feature = "std")]
     pub use crate::StdClock;
     pub use crate::{

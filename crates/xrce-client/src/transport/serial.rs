@@ -181,11 +181,8 @@ impl SerialTransport {
 fn open_raw(device: &Device) -> Result<File, TransportError> {
     use std::os::unix::fs::OpenOptionsExt;
     // Not the controlling terminal: a hang-up must not signal the process.
-    let file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .custom_flags(nix::libc::O_NOCTTY)
-        .open(&device.path)?;
+    let file =
+        std::fs::OpenOptions::new().read(true).write(true).custom_flags(nix::libc::O_NOCTTY).open(&device.path)?;
     let flow = if device.settings.rts_cts { serialport::FlowControl::Hardware } else { serialport::FlowControl::None };
     let path = device.path.to_str().ok_or(TransportError::NotOpen)?;
     // Shared, not exclusive, and closed at once: the settings stay with the terminal, which `file` keeps open.
