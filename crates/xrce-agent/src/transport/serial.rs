@@ -311,7 +311,6 @@ impl LineIo {
             // Deregistered before it is closed (dropped here).
             let _ = registry.deregister(&mut SourceFd(&line.file.as_raw_fd()));
             tracing::warn!(
-                device = %self.name,
                 "serial device {} is gone ({why}); trying to open it again every {REOPEN_EVERY:?}",
                 self.name
             );
@@ -339,7 +338,6 @@ impl LineIo {
             return;
         }
         tracing::info!(
-            device = %self.name,
             baud = settings.baud,
             rts_cts = settings.rts_cts,
             "serial device {} is back, open again",
