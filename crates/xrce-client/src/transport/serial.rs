@@ -24,7 +24,8 @@ use super::{Transport, TransportError};
 pub const SERIAL_MTU: usize = 512;
 /// Bytes read from the line per system call.
 const CHUNK: usize = 256;
-/// How long a write waits for room on a non-blocking descriptor before the message is given up.
+/// How long a write waits for room on a non-blocking descriptor (devices opened by path are) without any byte
+/// taken before the message is given up.
 const WRITE_TIMEOUT: Duration = Duration::from_secs(1);
 
 /// How a device opened by path is set up: raw 8N1 at `baud_rate`, with or without RTS/CTS.
@@ -180,9 +181,14 @@ impl SerialTransport {
 /// Opens `device` and makes it raw 8N1 at its speed.
 fn open_raw(device: &Device) -> Result<File, TransportError> {
     use std::os::unix::fs::OpenOptionsExt;
-    // Not the controlling terminal: a hang-up must not signal the process.
-    let file =
-        std::fs::OpenOptions::new().read(true).write(true).custom_flags(nix::libc::O_NOCTTY).open(&device.path)?;
+    // Not the controlling terminal: a hang-up must not signal the process. Non-blocking, so a line held back
+    // by flow control (CTS low, nobody reading) fails a send after WRITE_TIMEOUT instead of blocking for ever;
+    // reads wait in poll(2) anyway.
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .custom_flags(nix::libc::O_NOCTTY | nix::libc::O_NONBLOCK)
+        .open(&device.path)?;
     let flow = if device.settings.rts_cts { serialport::FlowControl::Hardware } else { serialport::FlowControl::None };
     let path = device.path.to_str().ok_or(TransportError::NotOpen)?;
     // Shared, not exclusive, and closed at once: the settings stay with the terminal, which `file` keeps open.
@@ -334,6 +340,16 @@ mod tests {
         master.read_exact(&mut got).unwrap();
         assert_eq!(got, expected);
         assert_eq!(t.send(&[0u8; SERIAL_MTU + 1]), Err(TransportError::MessageTooLarge));
+    }
+
+    /// A line nobody reads (held back, as by CTS low) fails a send once it took nothing for WRITE_TIMEOUT,
+    /// rather than blocking the session for ever.
+    #[test]
+    fn a_send_on_a_line_nobody_reads_gives_up() {
+        let (_master, path) = pty();
+        let mut t = SerialTransport::open_device(&path, SerialSettings::default(), 0, 1).unwrap();
+        let outcome = (0..100_000).map(|_| t.send(&[0x55; SERIAL_MTU])).find(Result::is_err);
+        assert_eq!(outcome, Some(Err(TransportError::ShortWrite)));
     }
 
     /// The device is set raw at the asked rate, non-standard ones included, with RTS/CTS when asked.
