@@ -1,6 +1,6 @@
 //! Transports: the [`Transport`] trait the blocking session runs over, custom transports in both modes of
 //! eProsima's custom transport (packet-oriented, or stream-oriented with HDLC-like framing), and with the
-//! `std` feature UDP and TCP over IPv4/IPv6 and agent discovery.
+//! `std` feature UDP and TCP over IPv4/IPv6 and agent discovery, and with `serial` (Unix) serial lines.
 
 use core::fmt;
 
@@ -8,11 +8,15 @@ use xrce_proto::framing::serial::{AddressFilter, Event, FrameBytes, FrameDecoder
 
 #[cfg(feature = "std")]
 pub mod discovery;
+#[cfg(all(feature = "serial", unix))]
+mod serial;
 #[cfg(feature = "std")]
 mod tcp;
 #[cfg(feature = "std")]
 mod udp;
 
+#[cfg(all(feature = "serial", unix))]
+pub use serial::{SerialSettings, SerialTransport, SERIAL_MTU};
 #[cfg(feature = "std")]
 pub use tcp::TcpTransport;
 #[cfg(feature = "std")]
