@@ -170,7 +170,7 @@ pub enum Transport {
 }
 
 impl Transport {
-    /// The subcommand name, as typed on the command line (for messages such as "not implemented yet").
+    /// The subcommand name, as typed on the command line (for messages such as "not available").
     pub fn name(&self) -> &'static str {
         match self {
             Self::Udp4 { .. } => "udp4",
@@ -264,7 +264,7 @@ Arguments per transport (place them after the transport):
       -D/--devs \"<DEVICE> ...\"        multiserial: space-separated device paths in one argument
       -f/--file <FILE>                serial: device path on the first line; multiserial: one per line
       --flow-control                  serial, multiserial: RTS/CTS hardware flow control (ours) [default: off]
-  * CAN FD (canfd; not implemented yet: the agent exits with an error)
+  * CAN FD (canfd)
       -D/--dev <INTERFACE>            SocketCAN interface (required)
       -I/--id <HEX>                   CAN identifier [default: 0x00000001]
 
@@ -302,7 +302,7 @@ enum TransportCommand {
     Multiserial(MultiSerialArgs),
     /// A pseudoterminal created by the agent.
     Pseudoterminal(PseudoTerminalArgs),
-    /// CAN FD over SocketCAN (not implemented yet: the agent exits with an error)
+    /// CAN FD over SocketCAN
     Canfd(CanArgs),
 }
 
