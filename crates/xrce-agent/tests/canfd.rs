@@ -90,7 +90,7 @@ impl Callbacks for Samples {
 
 /// Sample `i`: every third one larger than a frame; its index first, so order and integrity show.
 fn sample(i: u32) -> Vec<u8> {
-    let len = if i % 3 == 0 { BIG } else { 12 };
+    let len = if i.is_multiple_of(3) { BIG } else { 12 };
     let mut v = i.to_le_bytes().to_vec();
     v.extend((0..len).map(|k| (k as u32 * 7 + i) as u8));
     v

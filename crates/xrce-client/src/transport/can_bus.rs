@@ -102,7 +102,7 @@ impl BusNode {
         let mut guard = lock(&self.bus);
         let state = &mut *guard;
         state.stats.frames += 1;
-        if state.drop_every.is_some_and(|n| state.stats.frames % n == 0) {
+        if state.drop_every.is_some_and(|n| state.stats.frames.is_multiple_of(n)) {
             state.stats.lost += 1;
             return Ok(());
         }
