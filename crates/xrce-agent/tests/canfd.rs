@@ -7,7 +7,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::os::fd::{AsRawFd, RawFd};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Barrier};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -28,8 +28,8 @@ const IN_BUF: usize = 64 * HISTORY;
 /// Larger than a frame: travels as FRAGMENTs, about six frames each way.
 const BIG: usize = 300;
 
-/// The agent's side of the bus.
-struct AgentPort(BusNode);
+/// The agent's side of the bus; its first `failures` reads fail as a socket whose interface went down.
+struct AgentPort(BusNode, AtomicUsize);
 
 impl AsRawFd for AgentPort {
     fn as_raw_fd(&self) -> RawFd {
@@ -42,6 +42,9 @@ impl CanBus for AgentPort {
         self.0.send(frame)
     }
     fn try_recv(&self) -> std::io::Result<Option<Frame>> {
+        if self.1.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1)).is_ok() {
+            return Err(std::io::Error::from_raw_os_error(nix::errno::Errno::ENETDOWN as i32));
+        }
         self.0.try_recv()
     }
 }
@@ -54,8 +57,12 @@ struct RunningAgent {
 
 impl RunningAgent {
     fn on(bus: &MemoryBus) -> Self {
+        Self::with_port(AgentPort(bus.node().expect("node"), AtomicUsize::new(0)))
+    }
+
+    fn with_port(port: AgentPort) -> Self {
         let agent = Agent::<CanEndpoint>::new(MiddlewareKind::Ced, CoreConfig::default()).expect("CED agent");
-        let server = CanServer::new(AgentPort(bus.node().expect("node")), "memory bus", agent.core()).expect("server");
+        let server = CanServer::new(port, "memory bus", agent.core()).expect("server");
         let stop = Arc::new(AtomicBool::new(false));
         let stop2 = stop.clone();
         let thread = std::thread::spawn(move || server.run(&stop2));
@@ -260,6 +267,17 @@ fn frames_no_client_sends_are_ignored() {
     let mut client = Session::new(transport(&bus, 0x77), 0x0CA0_0030);
     client.create_session().expect("the agent still serves clients");
     assert!(client.ping_agent_session(1000, 3).expect("ping"));
+}
+
+#[test]
+fn a_receive_error_does_not_stop_the_agent() {
+    let bus = MemoryBus::new();
+    let _agent = RunningAgent::with_port(AgentPort(bus.node().expect("node"), AtomicUsize::new(3)));
+    let mut client = Session::new(transport(&bus, 0x78), 0x0CA0_0040);
+    client.create_session().expect("the agent read past the errors");
+    for _ in 0..3 {
+        assert!(client.ping_agent_session(1000, 3).expect("ping"));
+    }
 }
 
 #[test]

@@ -267,8 +267,23 @@ impl<B: CanBus> Io<CanEndpoint> for CanIo<'_, B> {
             return Ok(());
         }
         self.readable = false;
+        let mut failed = false;
         for _ in 0..MAX_READ_PER_TURN {
-            let Some(frame) = self.bus.try_recv()? else { return Ok(()) };
+            let frame = match self.bus.try_recv() {
+                Ok(Some(frame)) => frame,
+                Ok(None) => return Ok(()),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                // A socket error (the interface went down, a bus-off restart) is reported once and the
+                // frames queued behind it are still there: read on. Failing again ends the turn; the agent
+                // keeps serving and reads at the next readiness.
+                Err(e) => {
+                    tracing::warn!("CAN receive failed: {e}");
+                    if std::mem::replace(&mut failed, true) {
+                        return Ok(());
+                    }
+                    continue;
+                }
+            };
             let Some(id) = frame.id() else { continue };
             match frame.message() {
                 Ok(msg) => inbox.deliver(CanEndpoint(id), msg),
