@@ -270,6 +270,14 @@ fn frames_no_client_sends_are_ignored() {
 }
 
 #[test]
+fn ping_agent_out_of_session() {
+    let bus = MemoryBus::new();
+    let _agent = RunningAgent::on(&bus);
+    // GET_INFO without a session: the INFO answer must fit one frame too.
+    assert!(ping_agent_attempts(&mut transport(&bus, 0x79), 1000, 3).expect("ping"), "the agent answers");
+}
+
+#[test]
 fn a_receive_error_does_not_stop_the_agent() {
     let bus = MemoryBus::new();
     let _agent = RunningAgent::with_port(AgentPort(bus.node().expect("node"), AtomicUsize::new(3)));
