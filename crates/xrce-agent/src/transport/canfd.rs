@@ -257,6 +257,11 @@ impl<B: CanBus> Io<CanEndpoint> for CanIo<'_, B> {
         self.readable |= event.is_readable() || event.is_error();
     }
 
+    fn idle(&mut self) {
+        // A timer turn reads too (one system call), in case a readiness edge went unseen.
+        self.readable = true;
+    }
+
     fn prefetch(&mut self) -> io::Result<bool> {
         // Set only when the last turn left frames behind: run the next turn at once.
         Ok(self.readable)
