@@ -215,6 +215,32 @@ mod tests {
     }
 
     #[test]
+    fn the_transport_sends_under_its_id_and_takes_only_its_own_frames() {
+        let bus = MemoryBus::new();
+        let mut transport = CanTransport::with_socket(bus.node().unwrap(), 0x0123_4567).unwrap();
+        let other = bus.node().unwrap();
+        assert_eq!(transport.mtu(), 63);
+
+        transport.send(b"ping").unwrap();
+        let sent = other.try_recv().unwrap().unwrap();
+        assert_eq!((sent.can_id, sent.len, sent.message()), (0x8123_4567, 5, Ok(&b"ping"[..])));
+        assert_eq!(transport.send(&[0; 64]), Err(TransportError::MessageTooLarge));
+        transport.send(&[7; 63]).unwrap();
+        assert_eq!(other.try_recv().unwrap().unwrap().len, 64);
+
+        // Another node's identifier, a standard frame of the same number, then ours.
+        other.send(&Frame::with_message(0x0123_4568, b"not mine").unwrap()).unwrap();
+        other.send(&Frame::from_parts(0x567, &[2, 1, 1])).unwrap();
+        other.send(&Frame::with_message(0x0123_4567, b"mine").unwrap()).unwrap();
+        let mut buf = [0u8; 64];
+        assert_eq!(transport.recv(&mut buf, 1000), Ok(Some(4)));
+        assert_eq!(&buf[..4], b"mine");
+        assert_eq!(transport.recv(&mut buf, 0), Ok(None));
+        assert_eq!(transport.recv(&mut buf, 20), Ok(None));
+        assert!(CanTransport::with_socket(bus.node().unwrap(), 0x2000_0000).is_err());
+    }
+
+    #[test]
     fn opening_a_missing_interface_fails() {
         assert!(CanTransport::new("xrce-no-such-can", 1).is_err());
         assert_eq!(CanTransport::new("can0", 0x2000_0000).err(), Some(TransportError::NotOpen));
