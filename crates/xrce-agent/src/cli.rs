@@ -266,7 +266,7 @@ Arguments per transport (place them after the transport):
       --flow-control                  serial, multiserial: RTS/CTS hardware flow control (ours) [default: off]
   * CAN FD (canfd)
       -D/--dev <INTERFACE>            SocketCAN interface (required)
-      -I/--id <HEX>                   CAN identifier [default: 0x00000001]
+      -I/--id <HEX>                   CAN identifier, unused as by eProsima [default: 0x00000001]
 
 Example: xrce-agent udp4 -p 8888 -m ced -v6";
 
@@ -433,7 +433,8 @@ struct CanArgs {
     #[arg(short = 'D', long = "dev", value_name = "INTERFACE")]
     dev: String,
 
-    /// CAN identifier in hexadecimal, with or without 0x.
+    /// CAN identifier in hexadecimal, with or without 0x; accepted and unused, as by eProsima's agent (each
+    /// client is answered on its own identifier).
     #[arg(short = 'I', long = "id", value_name = "HEX", default_value = "0x00000001", value_parser = parse_can_id)]
     id: u32,
 
