@@ -28,24 +28,43 @@ const IN_BUF: usize = 64 * HISTORY;
 /// Larger than a frame: travels as FRAGMENTs, about six frames each way.
 const BIG: usize = 300;
 
-/// The agent's side of the bus; its first `failures` reads fail as a socket whose interface went down.
-struct AgentPort(BusNode, AtomicUsize);
+/// The agent's side of the bus. Its first `failed_reads` reads fail as on a socket whose interface went
+/// down; its first `refused_sends` sends are refused with `ENOBUFS`, as by an interface whose queue is full.
+struct AgentPort {
+    node: BusNode,
+    failed_reads: AtomicUsize,
+    refused_sends: AtomicUsize,
+}
+
+impl AgentPort {
+    fn new(node: BusNode, failed_reads: usize, refused_sends: usize) -> Self {
+        Self { node, failed_reads: AtomicUsize::new(failed_reads), refused_sends: AtomicUsize::new(refused_sends) }
+    }
+}
+
+/// Takes one from `n` if it is not zero yet.
+fn take_one(n: &AtomicUsize) -> bool {
+    n.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1)).is_ok()
+}
 
 impl AsRawFd for AgentPort {
     fn as_raw_fd(&self) -> RawFd {
-        self.0.as_raw_fd()
+        self.node.as_raw_fd()
     }
 }
 
 impl CanBus for AgentPort {
     fn send(&self, frame: &Frame) -> std::io::Result<()> {
-        self.0.send(frame)
+        if take_one(&self.refused_sends) {
+            return Err(std::io::Error::from_raw_os_error(nix::errno::Errno::ENOBUFS as i32));
+        }
+        self.node.send(frame)
     }
     fn try_recv(&self) -> std::io::Result<Option<Frame>> {
-        if self.1.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1)).is_ok() {
+        if take_one(&self.failed_reads) {
             return Err(std::io::Error::from_raw_os_error(nix::errno::Errno::ENETDOWN as i32));
         }
-        self.0.try_recv()
+        self.node.try_recv()
     }
 }
 
@@ -57,7 +76,7 @@ struct RunningAgent {
 
 impl RunningAgent {
     fn on(bus: &MemoryBus) -> Self {
-        Self::with_port(AgentPort(bus.node().expect("node"), AtomicUsize::new(0)))
+        Self::with_port(AgentPort::new(bus.node().expect("node"), 0, 0))
     }
 
     fn with_port(port: AgentPort) -> Self {
@@ -280,12 +299,25 @@ fn ping_agent_out_of_session() {
 #[test]
 fn a_receive_error_does_not_stop_the_agent() {
     let bus = MemoryBus::new();
-    let _agent = RunningAgent::with_port(AgentPort(bus.node().expect("node"), AtomicUsize::new(3)));
+    let _agent = RunningAgent::with_port(AgentPort::new(bus.node().expect("node"), 3, 0));
     let mut client = Session::new(transport(&bus, 0x78), 0x0CA0_0040);
     client.create_session().expect("the agent read past the errors");
     for _ in 0..3 {
         assert!(client.ping_agent_session(1000, 3).expect("ping"));
     }
+}
+
+/// 2000 refusals at 100 µs apiece outlast several turns' retry budgets: frames wait, in order, none lost.
+#[test]
+fn frames_the_interface_refuses_wait_for_it() {
+    let bus = MemoryBus::new();
+    let _agent = RunningAgent::with_port(AgentPort::new(bus.node().expect("node"), 0, 2000));
+    let mut client = Session::new(transport(&bus, 0x7A), 0x0CA0_0050);
+    client.create_session().expect("the STATUS_AGENT went out once the interface took it");
+    for _ in 0..3 {
+        assert!(client.ping_agent_session(1000, 3).expect("ping"));
+    }
+    assert_eq!(bus.stats().lost, 0);
 }
 
 #[test]

@@ -222,6 +222,7 @@ impl<B: CanBus> CanServer<B> {
                 readable: true,
                 outbox: Outbox::default(),
                 writable_interest: false,
+                retry_send: false,
             })
         })?;
         if io.outbox.dropped() > 0 {
@@ -239,6 +240,8 @@ struct CanIo<'a, B> {
     readable: bool,
     outbox: Outbox,
     writable_interest: bool,
+    /// The interface refused with `ENOBUFS` past the turn's budget: turn again at once, reading too.
+    retry_send: bool,
 }
 
 impl<B: CanBus> CanIo<'_, B> {
@@ -263,7 +266,12 @@ impl<B: CanBus> Io<CanEndpoint> for CanIo<'_, B> {
     }
 
     fn prefetch(&mut self) -> io::Result<bool> {
-        // Set only when the last turn left frames behind: run the next turn at once.
+        // Frames left behind by the last turn, or sends to retry: run the next turn at once (it reads too,
+        // as no readiness poll runs before it). Each retrying turn waits up to NOBUFS_BUDGET for the
+        // interface, so this paces the loop rather than spinning it.
+        if self.retry_send {
+            self.readable = true;
+        }
         Ok(self.readable)
     }
 
@@ -312,11 +320,13 @@ impl<B: CanBus> Io<CanEndpoint> for CanIo<'_, B> {
             spent.buffers.push(t.data);
         }
         if self.outbox.is_empty() {
+            self.retry_send = false;
             self.want_writable(false);
             return;
         }
         let bus = self.bus;
         let flushed = self.outbox.flush(|f| bus.send(f));
+        self.retry_send = flushed == Flushed::Later;
         self.want_writable(flushed == Flushed::Blocked);
     }
 }
