@@ -521,9 +521,9 @@ fn start_can(
     can_id: u32,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    use crate::transport::canfd::{CanServer, SocketCanBus};
+    use crate::transport::canfd::{core_config, CanServer, SocketCanBus};
     let bus = SocketCanBus::open(device).map_err(cannot_open(format!("CAN interface {device}")))?;
-    let agent = Agent::with_dds(kind, CoreConfig::default(), to_graph_mode(config.ros_graph), dds_options(config))?;
+    let agent = Agent::with_dds(kind, core_config(), to_graph_mode(config.ros_graph), dds_options(config))?;
     load_refs(config, &agent.profiles)?;
     let server = CanServer::new(bus, device, agent.core())?;
     tracing::info!(device, id = format_args!("{can_id:#x}"), middleware = kind.name(), "CAN FD agent running");

@@ -13,9 +13,8 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use xrce_agent::agent::{Agent, AgentError, AgentInstance};
-use xrce_agent::core::CoreConfig;
 use xrce_agent::middleware::MiddlewareKind;
-use xrce_agent::transport::canfd::{CanBus, CanEndpoint, CanServer};
+use xrce_agent::transport::canfd::{self, CanBus, CanEndpoint, CanServer};
 use xrce_client::prelude::*;
 use xrce_client::transport::can::CAN_MTU;
 use xrce_client::transport::{BusNode, MemoryBus};
@@ -24,7 +23,8 @@ use xrce_proto::framing::can::Frame;
 const HISTORY: usize = 16;
 /// Output slots of one frame's message, as eProsima's CAN examples size them (MTU × history).
 const OUT_BUF: usize = CAN_MTU * HISTORY;
-const IN_BUF: usize = 64 * HISTORY;
+/// Input slots hold a message and its length word; 128 bytes leave room for any frame.
+const IN_BUF: usize = 128 * HISTORY;
 /// Larger than a frame: travels as FRAGMENTs, about six frames each way.
 const BIG: usize = 300;
 
@@ -80,7 +80,7 @@ impl RunningAgent {
     }
 
     fn with_port(port: AgentPort) -> Self {
-        let agent = Agent::<CanEndpoint>::new(MiddlewareKind::Ced, CoreConfig::default()).expect("CED agent");
+        let agent = Agent::<CanEndpoint>::new(MiddlewareKind::Ced, canfd::core_config()).expect("CED agent");
         let server = CanServer::new(port, "memory bus", agent.core()).expect("server");
         let stop = Arc::new(AtomicBool::new(false));
         let stop2 = stop.clone();
@@ -103,6 +103,21 @@ impl Drop for RunningAgent {
 
 fn transport(bus: &MemoryBus, can_id: u32) -> CanTransport<BusNode> {
     CanTransport::with_socket(bus.node().expect("node"), can_id).expect("transport")
+}
+
+/// A CAN transport that tells the session another MTU (a client built with the wrong one).
+struct Claimed(CanTransport<BusNode>, usize);
+
+impl Transport for Claimed {
+    fn mtu(&self) -> usize {
+        self.1
+    }
+    fn send(&mut self, msg: &[u8]) -> Result<(), xrce_client::TransportError> {
+        self.0.send(msg)
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, xrce_client::TransportError> {
+        self.0.recv(buf, timeout_ms)
+    }
 }
 
 #[derive(Default)]
@@ -128,9 +143,10 @@ const READER: &str = "<dds><data_reader><topic><kind>NO_KEY</kind><name>CanTopic
 const WRITER: &str = "<dds><data_writer><topic><kind>NO_KEY</kind><name>CanTopic</name><dataType>Blob</dataType>\
                       </topic></data_writer></dds>";
 
-/// A subscriber (CAN id 0x101) and a publisher (CAN id 0x102) on `bus`, each on its own thread, through an
-/// agent: the publisher writes `n` samples, each confirmed before the next; returns what the subscriber got.
-fn pubsub(bus: &MemoryBus, n: u32) -> Vec<Vec<u8>> {
+/// A subscriber (CAN id 0x101, telling its session an MTU of `sub_mtu`) and a publisher (CAN id 0x102) on
+/// `bus`, each on its own thread, through an agent: the publisher writes `n` samples, each confirmed before
+/// the next; returns what the subscriber got.
+fn pubsub(bus: &MemoryBus, n: u32, sub_mtu: usize) -> Vec<Vec<u8>> {
     let _agent = RunningAgent::on(bus);
     let reader_ready = Barrier::new(2);
     let p = object_id(1, ObjectKind::Participant);
@@ -138,7 +154,8 @@ fn pubsub(bus: &MemoryBus, n: u32) -> Vec<Vec<u8>> {
     std::thread::scope(|scope| {
         let subscriber = scope.spawn(|| {
             let (mut out_buf, mut in_buf) = ([0u8; OUT_BUF], [0u8; IN_BUF]);
-            let mut sub = Session::new(transport(bus, 0x101), 0x0CA0_0001).with_callbacks(Samples::default());
+            let mut sub =
+                Session::new(Claimed(transport(bus, 0x101), sub_mtu), 0x0CA0_0001).with_callbacks(Samples::default());
             sub.create_session().expect("subscriber session");
             let out = sub.create_output_reliable_stream(&mut out_buf, HISTORY).expect("stream");
             let input = sub.create_input_reliable_stream(&mut in_buf, HISTORY).expect("stream");
@@ -197,7 +214,7 @@ fn assert_all_in_order(got: &[Vec<u8>], n: u32) {
 #[test]
 fn publish_and_subscribe_with_fragmented_samples() {
     let bus = MemoryBus::new();
-    let got = pubsub(&bus, 12);
+    let got = pubsub(&bus, 12, CAN_MTU);
     assert_all_in_order(&got, 12);
     let stats = bus.stats();
     assert_eq!((stats.lost, stats.overruns), (0, 0), "{stats:?}");
@@ -208,11 +225,19 @@ fn publish_and_subscribe_with_fragmented_samples() {
 fn reliable_streams_recover_when_every_fifth_frame_is_lost() {
     let bus = MemoryBus::new();
     bus.drop_every(5);
-    let got = pubsub(&bus, 24);
+    let got = pubsub(&bus, 24, CAN_MTU);
     assert_all_in_order(&got, 24);
     let stats = bus.stats();
     assert!(stats.lost >= stats.frames / 5 - 1 && stats.lost > 20, "the bus did lose frames: {stats:?}");
     eprintln!("lossy bus: {stats:?}");
+}
+
+/// A subscriber whose session announces 508 (a client built with the UDP MTU) still gets every sample: the
+/// agent never builds a message larger than a frame.
+#[test]
+fn a_client_announcing_a_larger_mtu_is_answered_in_frames() {
+    let bus = MemoryBus::new();
+    assert_all_in_order(&pubsub(&bus, 6, 512), 6);
 }
 
 /// Records every frame of the bus: (CAN id, XRCE session id of the message).

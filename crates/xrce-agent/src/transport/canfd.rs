@@ -21,11 +21,11 @@ use mio::event::Event;
 use mio::unix::SourceFd;
 use mio::{Interest, Registry, Token};
 use socketcan::{CanFdFrame, CanFdSocket, CanRawFrame, EmbeddedFrame, ExtendedId, Id, Socket, StandardId};
-use xrce_proto::framing::can::Frame;
+use xrce_proto::framing::can::{Frame, MAX_MESSAGE_LEN};
 
 use super::drive::{EventLoop, Inbox, Io, Spent};
 use super::SharedCore;
-use crate::core::Transmit;
+use crate::core::{CoreConfig, Transmit};
 
 /// Frames read per turn at most, so a flooded bus still lets the agent answer; the rest is read at once in
 /// the next turn.
@@ -37,6 +37,12 @@ pub const MAX_OUTBOX: usize = 1024;
 pub const NOBUFS_BUDGET: Duration = Duration::from_millis(5);
 
 const BUS: Token = Token(1);
+
+/// The core settings of a CAN FD agent: messages of at most one frame, whatever MTU a client announces (a
+/// client built with a larger one is still answered in frames; its own messages are its business).
+pub fn core_config() -> CoreConfig {
+    CoreConfig { max_mtu: MAX_MESSAGE_LEN as u16, ..CoreConfig::default() }
+}
 
 /// A client on the bus: the 29-bit identifier of its frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
