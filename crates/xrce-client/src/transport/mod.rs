@@ -20,10 +20,10 @@ mod tcp;
 #[cfg(feature = "std")]
 mod udp;
 
-#[cfg(all(feature = "serial", unix))]
-pub use serial::{SerialSettings, SerialTransport, SERIAL_MTU};
 #[cfg(all(feature = "can", target_os = "linux"))]
 pub use can::{BusNode, CanSocket, CanTransport, MemoryBus, SocketCan};
+#[cfg(all(feature = "serial", unix))]
+pub use serial::{SerialSettings, SerialTransport, SERIAL_MTU};
 #[cfg(feature = "std")]
 pub use tcp::TcpTransport;
 #[cfg(feature = "std")]
