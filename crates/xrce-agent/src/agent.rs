@@ -45,8 +45,8 @@ pub enum AgentError {
     /// The middleware is not available.
     #[error(transparent)]
     Middleware(#[from] UnsupportedMiddleware),
-    /// The transport is not implemented yet.
-    #[error("transport `{0}` is not implemented yet; available: udp4, udp6, tcp4, tcp6, serial, multiserial, pseudoterminal")]
+    /// The transport is not available on this system.
+    #[error("transport `{0}` is not available on this system; available: udp4, udp6, tcp4, tcp6 (and on Linux serial, multiserial, pseudoterminal, canfd)")]
     Transport(&'static str),
     /// `-P/--p2p`: eProsima's agent-to-agent bridging of CED topics, which this agent does not have. micro-ROS
     /// builds eProsima's agent without it (`UAGENT_P2P_PROFILE=OFF`), and with DDS (the default middleware)
@@ -322,6 +322,9 @@ pub enum AgentHandle {
     /// Serial servers (`serial`, `multiserial`, `pseudoterminal`): endpoints are (line, address).
     #[cfg(target_os = "linux")]
     Serial(Agent<crate::transport::serial::SerialEndpoint>),
+    /// The CAN FD server: endpoints are the clients' CAN identifiers.
+    #[cfg(target_os = "linux")]
+    Can(Agent<crate::transport::canfd::CanEndpoint>),
 }
 
 /// A running agent built from command-line arguments (eProsima's `AgentInstance`).
@@ -419,6 +422,9 @@ impl AgentInstance {
                 println!("Pseudo-Serial device opened at {}", line.name());
                 start_serial(kind, &config, vec![line], &stop)?
             }
+            #[cfg(target_os = "linux")]
+            Transport::CanFd { ref device, can_id } => start_can(kind, &config, device, can_id, &stop)?,
+            #[cfg(not(target_os = "linux"))]
             ref other => return Err(AgentError::Transport(other.name())),
         };
         if config.discovery.is_some() && local_addr.is_none() {
@@ -503,6 +509,27 @@ fn start_serial(
     let stop2 = stop.clone();
     let handle = std::thread::Builder::new().name("xrce-serial".into()).spawn(move || server.run(&stop2))?;
     Ok((AgentHandle::Serial(agent), handle, None))
+}
+
+/// Starts a CAN FD server on the SocketCAN interface `device`. `can_id` (`-I`) is logged only: eProsima's agent
+/// takes it and does not use it either (it answers every client on the client's own identifier).
+#[cfg(target_os = "linux")]
+fn start_can(
+    kind: MiddlewareKind,
+    config: &Config,
+    device: &str,
+    can_id: u32,
+    stop: &Arc<AtomicBool>,
+) -> Result<Started, AgentError> {
+    use crate::transport::canfd::{core_config, CanServer, SocketCanBus};
+    let bus = SocketCanBus::open(device).map_err(cannot_open(format!("CAN interface {device}")))?;
+    let agent = Agent::with_dds(kind, core_config(), to_graph_mode(config.ros_graph), dds_options(config))?;
+    load_refs(config, &agent.profiles)?;
+    let server = CanServer::new(bus, device, agent.core())?;
+    tracing::info!(device, id = format_args!("{can_id:#x}"), middleware = kind.name(), "CAN FD agent running");
+    let stop2 = stop.clone();
+    let handle = std::thread::Builder::new().name("xrce-canfd".into()).spawn(move || server.run(&stop2))?;
+    Ok((AgentHandle::Can(agent), handle, None))
 }
 
 /// The `-d` discovery responder on its port (joining 239.255.0.2), advertising `service_port`, if asked for;

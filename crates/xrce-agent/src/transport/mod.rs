@@ -4,6 +4,8 @@
 //! reaches it through its [`SharedCore`] handle ([`home`]).
 
 pub mod batch;
+#[cfg(target_os = "linux")]
+pub mod canfd;
 pub mod discovery;
 pub mod drive;
 pub mod home;

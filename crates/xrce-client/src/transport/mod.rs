@@ -1,11 +1,16 @@
 //! Transports: the [`Transport`] trait the blocking session runs over, custom transports in both modes of
 //! eProsima's custom transport (packet-oriented, or stream-oriented with HDLC-like framing), and with the
-//! `std` feature UDP and TCP over IPv4/IPv6 and agent discovery, and with `serial` (Unix) serial lines.
+//! `std` feature UDP and TCP over IPv4/IPv6 and agent discovery, with `serial` (Unix) serial lines and with
+//! `can` (Linux) CAN FD.
 
 use core::fmt;
 
 use xrce_proto::framing::serial::{AddressFilter, Event, FrameBytes, FrameDecoder};
 
+#[cfg(all(feature = "can", target_os = "linux"))]
+pub mod can;
+#[cfg(all(feature = "can", target_os = "linux"))]
+mod can_bus;
 #[cfg(feature = "std")]
 pub mod discovery;
 #[cfg(all(feature = "serial", unix))]
@@ -15,6 +20,8 @@ mod tcp;
 #[cfg(feature = "std")]
 mod udp;
 
+#[cfg(all(feature = "can", target_os = "linux"))]
+pub use can::{BusNode, CanSocket, CanTransport, MemoryBus, SocketCan};
 #[cfg(all(feature = "serial", unix))]
 pub use serial::{SerialSettings, SerialTransport, SERIAL_MTU};
 #[cfg(feature = "std")]
