@@ -4,6 +4,7 @@
 //! reaches it through its [`SharedCore`] handle ([`home`]).
 
 pub mod batch;
+pub mod custom;
 pub mod discovery;
 pub mod drive;
 pub mod home;
