@@ -13,8 +13,8 @@
 //! descriptor, so it cannot be polled by `mio`. It runs on a reader thread of its own, called with a
 //! timeout ([`CustomOptions::read_timeout`], also how soon [`CustomAgent::stop`] returns); each message
 //! goes to the agent's event loop ([`EventLoop`]) through a bounded channel, and the reader wakes the
-//! loop's poll through a second `mio` waker, raised once for any number of messages between two turns (the
-//! loop then drains the channel without waiting). Unframing happens on the reader thread too, one decoder
+//! loop's poll through a pipe the loop registers (`mio` allows one `Waker` per poll, the middleware's),
+//! once for any number of messages between two turns; the loop then drains the channel without waiting. Unframing happens on the reader thread too, one decoder
 //! per endpoint, so peers sharing the transport never corrupt each other's frames. A full channel blocks
 //! the reader: the user's medium buffers meanwhile. `write` is called from the loop thread, as the UDP
 //! server sends; it may block, which delays the other clients as a full socket would. The cost over a
@@ -38,6 +38,7 @@ use std::time::Duration;
 pub use endpoint::{Endpoint, EndpointDesc, EndpointError, Member, MemberKind, MemberValue};
 
 use super::drive::EventLoop;
+use super::WakeFlag;
 use crate::agent::Agent;
 use crate::core::CoreConfig;
 use crate::middleware::{MiddlewareKind, UnsupportedMiddleware};
@@ -48,7 +49,7 @@ use shell::{EndpointTable, Shell};
 /// each client at its frames' source address.
 pub const AGENT_ADDRESS: u8 = 0;
 
-/// The loop's token for the reader's waker (the middleware's is 0).
+/// The loop's token for the reader's wake-up pipe (the middleware's waker is 0).
 const READER: mio::Token = mio::Token(1);
 
 /// The four operations of a custom transport (eProsima's `InitFunction`, `FiniFunction`, `SendMsgFunction`,
@@ -364,7 +365,8 @@ impl CustomAgent {
         let queue = self.options.queue.max(1);
         let (tx, rx) = sync_channel(queue);
         let (spare_tx, spare_rx) = sync_channel(queue);
-        let wake = Arc::new(Wake::default());
+        let (pipe, woken) = mio::unix::pipe::new()?;
+        let wake = Arc::new(Wake { flag: WakeFlag::default(), pipe });
         let reader = Reader {
             name: self.name.clone(),
             io: self.io.clone(),
@@ -377,13 +379,14 @@ impl CustomAgent {
             stop: self.stop.clone(),
         };
         let reader = std::thread::Builder::new().name("xrce-custom-rx".into()).spawn(move || reader.run())?;
-        let shell = Shell {
+        let mut shell = Shell {
             name: self.name.clone(),
             io: self.io.clone(),
             mode: self.mode,
             rx,
             spare: spare_tx,
             wake,
+            woken,
             table: EndpointTable::new(self.options.max_endpoints),
             stash: None,
             frame: Vec::new(),
@@ -392,9 +395,7 @@ impl CustomAgent {
         let served = std::thread::Builder::new().name("xrce-custom".into()).spawn(move || {
             looped
                 .run(&label, &stop, |registry| {
-                    let waker = mio::Waker::new(registry, READER)?;
-                    // Only this setup sets it.
-                    let _ = shell.wake.waker.set(waker);
+                    registry.register(&mut shell.woken, READER, mio::Interest::READABLE)?;
                     Ok(shell)
                 })
                 .map(drop)

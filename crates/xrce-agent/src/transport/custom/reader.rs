@@ -3,10 +3,10 @@
 //! bounded channel, waking the loop's poll.
 
 use std::collections::HashMap;
-use std::io;
+use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use xrce_proto::framing::serial::{AddressFilter, Event, FrameDecoder};
@@ -29,22 +29,20 @@ pub(super) struct Incoming {
     pub bytes: Vec<u8>,
 }
 
-/// How the reader wakes the loop: a flag so many messages between two turns cost one wake-up, and the
-/// loop's waker, set once the loop has registered it (the loop's first turn does not wait, so a message
-/// handed over before then is not stranded).
-#[derive(Debug, Default)]
+/// How the reader wakes the loop: a flag, so many messages between two turns cost one wake-up, and a pipe
+/// the loop polls (a `mio::Waker` cannot serve: a poll has one, the middleware's).
+#[derive(Debug)]
 pub(super) struct Wake {
     pub flag: WakeFlag,
-    pub waker: OnceLock<mio::Waker>,
+    pub pipe: mio::unix::pipe::Sender,
 }
 
 impl Wake {
     fn raise(&self) {
         if self.flag.raise() {
-            if let Some(waker) = self.waker.get() {
-                // A failed wake-up only delays the message to the loop's next turn (at most MAX_BLOCK).
-                let _ = waker.wake();
-            }
+            // A full pipe already holds a wake-up; a failed one only delays the message to the loop's next
+            // turn (at most MAX_BLOCK).
+            let _ = (&self.pipe).write(&[1]);
         }
     }
 }

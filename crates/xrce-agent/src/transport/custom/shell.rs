@@ -3,7 +3,7 @@
 //! with the user's `write` (framed in stream mode).
 
 use std::collections::HashMap;
-use std::io;
+use std::io::{self, Read};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::Arc;
 
@@ -30,6 +30,8 @@ pub(super) struct Shell {
     /// Buffers back to the reader.
     pub spare: SyncSender<Vec<u8>>,
     pub wake: Arc<Wake>,
+    /// The loop's end of the reader's wake-up pipe.
+    pub woken: mio::unix::pipe::Receiver,
     pub table: EndpointTable,
     /// A message taken by [`Io::prefetch`], delivered first in the next turn.
     pub stash: Option<Incoming>,
@@ -50,6 +52,9 @@ impl Io<EndpointId> for Shell {
     fn receive(&mut self, inbox: &mut Inbox<'_, EndpointId>) -> io::Result<()> {
         // Lowered before draining: a message queued after the drain raises it again and wakes the loop.
         self.wake.flag.take();
+        let mut drain = [0u8; 64];
+        // Emptied, so the next byte is a new edge for the poll.
+        while matches!((&self.woken).read(&mut drain), Ok(n) if n > 0) {}
         let first = self.stash.take();
         let rx = &self.rx;
         for msg in first.into_iter().chain(std::iter::from_fn(|| rx.try_recv().ok())).take(BATCH) {
