@@ -104,8 +104,9 @@ impl CustomAgentIo for Hub {
         }
         let links = self.links.lock().unwrap();
         let tx = links.get(&link).ok_or_else(|| io::Error::other(format!("no link {link}")))?;
-        tx.send(bytes.to_vec()).map_err(io_error)?;
+        // Counted first: the client may act on the message before `send` returns.
         *self.written.lock().unwrap().entry(link).or_default() += 1;
+        tx.send(bytes.to_vec()).map_err(io_error)?;
         Ok(bytes.len())
     }
 
@@ -175,7 +176,9 @@ impl Callbacks for Samples {
 }
 
 fn blob(name: &str, kind: &str) -> String {
-    format!("<dds><{kind}><topic><kind>NO_KEY</kind><name>{name}</name><dataType>Blob</dataType></topic></{kind}></dds>")
+    format!(
+        "<dds><{kind}><topic><kind>NO_KEY</kind><name>{name}</name><dataType>Blob</dataType></topic></{kind}></dds>"
+    )
 }
 
 /// A subscriber session on `sub_io` and a publisher session on `pub_io`, both through the agent: the
