@@ -35,7 +35,7 @@ fn io_error(e: impl std::error::Error + Send + Sync + 'static) -> io::Error {
 /// The agent's side of an in-memory medium: every client has a link (a number and a peer name, the
 /// endpoint's two members); what clients write arrives on one queue, tagged with the link.
 struct Hub {
-    inbound: Mutex<(Receiver<(u32, Vec<u8>)>, Vec<u8>, u32)>,
+    inbound: Mutex<Inbound>,
     to_hub: Sender<(u32, Vec<u8>)>,
     links: Mutex<HashMap<u32, Sender<Vec<u8>>>>,
     /// Messages (or stream chunks) written per link.
@@ -45,6 +45,13 @@ struct Hub {
     opens: AtomicUsize,
     closes: AtomicUsize,
     refuse_open: AtomicBool,
+}
+
+/// What clients wrote, and the rest of a chunk a stream-mode `read` took part of.
+struct Inbound {
+    rx: Receiver<(u32, Vec<u8>)>,
+    pending: Vec<u8>,
+    link: u32,
 }
 
 fn peer_name(link: u32) -> String {
@@ -59,7 +66,7 @@ impl Hub {
     fn new() -> Arc<Self> {
         let (to_hub, inbound) = channel();
         Arc::new(Self {
-            inbound: Mutex::new((inbound, Vec::new(), 0)),
+            inbound: Mutex::new(Inbound { rx: inbound, pending: Vec::new(), link: 0 }),
             to_hub,
             links: Mutex::new(HashMap::new()),
             written: Mutex::new(HashMap::new()),
@@ -117,7 +124,7 @@ impl CustomAgentIo for Hub {
             return Err(io::Error::new(io::ErrorKind::ConnectionReset, "medium reset"));
         }
         let mut guard = self.inbound.lock().unwrap();
-        let (rx, pending, link) = &mut *guard;
+        let Inbound { rx, pending, link } = &mut *guard;
         if pending.is_empty() {
             match rx.recv_timeout(timeout) {
                 Ok((l, bytes)) => {
