@@ -510,3 +510,167 @@ fn stream_mode_over_pseudoterminals() {
     pubsub_through(sub, publ, true, (0x0D06_0001, 0x0D06_0002), "PtyTopic");
     agent.stop().expect("stops");
 }
+
+/// Round trips (a session ping: GET_INFO and its INFO) through the agent over `io`: median and 99th
+/// percentile. A measurement, not a check: `cargo test --release -p xrce-agent --test custom_agent --
+/// --ignored --nocapture round_trip`.
+fn round_trip<IO: CustomIo>(io: IO, framing: bool, count: usize) -> (Duration, Duration) {
+    let transport = CustomTransport::<_, MTU>::new(io, framing).unwrap();
+    let mut s = Session::new(transport, 0x0D07_0001);
+    s.create_session().unwrap();
+    let mut times: Vec<Duration> = (0..count)
+        .map(|_| {
+            let started = Instant::now();
+            assert!(s.ping_agent_session(1000, 1).unwrap(), "answered");
+            started.elapsed()
+        })
+        .collect();
+    times.sort();
+    let _ = s.delete_session();
+    (times[count / 2], times[count * 99 / 100])
+}
+
+/// Samples per second from a publisher to a subscriber through the agent (reliable streams), over `ios`
+/// (subscriber's, publisher's). A measurement, not a check (`--ignored --nocapture throughput`).
+fn throughput<IO: CustomIo + Send + 'static>(ios: (IO, IO), framing: bool, size: usize, count: usize) -> f64 {
+    let topic_xml = "<dds><topic><name>Rate</name><dataType>Blob</dataType></topic></dds>";
+    let p = object_id(1, ObjectKind::Participant);
+    let t = object_id(1, ObjectKind::Topic);
+    let (ready_tx, ready_rx) = channel();
+    let (sub_io, pub_io) = ios;
+    let sub = std::thread::spawn(move || {
+        let (mut sub_out, mut sub_in) = ([0u8; BUF], [0u8; BUF * 4]);
+        let transport = CustomTransport::<_, MTU>::new(sub_io, framing).unwrap();
+        let mut sub = Session::new(transport, 0x0D08_0001).with_callbacks(Samples::default());
+        sub.create_session().unwrap();
+        let out = sub.create_output_reliable_stream(&mut sub_out, HISTORY).unwrap();
+        let input = sub.create_input_reliable_stream(&mut sub_in, HISTORY * 4).unwrap();
+        let (s, dr) = (object_id(1, ObjectKind::Subscriber), object_id(1, ObjectKind::DataReader));
+        let reqs = [
+            sub.buffer_create_participant_xml(out, p, 0, "<dds><participant/></dds>", REPLACE).unwrap(),
+            sub.buffer_create_topic_xml(out, t, p, topic_xml, REPLACE).unwrap(),
+            sub.buffer_create_subscriber_xml(out, s, p, "", REPLACE).unwrap(),
+            sub.buffer_create_datareader_xml(out, dr, s, &blob("Rate", "data_reader"), REPLACE).unwrap(),
+        ];
+        let mut status = [0u8; 4];
+        assert!(sub.run_session_until_all_status(3000, &reqs, &mut status).unwrap());
+        let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
+        sub.buffer_request_data(out, dr, input, Some(&control)).unwrap();
+        sub.run_session_time(100).unwrap();
+        ready_tx.send(()).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while sub.callbacks().0.len() < count && Instant::now() < deadline {
+            sub.run_session_until_data(100).unwrap();
+            // Only the count matters: keep no payloads.
+            let got = sub.callbacks().0.len();
+            sub.callbacks().0.clear();
+            sub.callbacks().0.resize(got, Vec::new());
+        }
+        sub.callbacks().0.len()
+    });
+    ready_rx.recv().unwrap();
+    let (mut pub_out, mut pub_in) = ([0u8; BUF], [0u8; BUF]);
+    let transport = CustomTransport::<_, MTU>::new(pub_io, framing).unwrap();
+    let mut publ = Session::new(transport, 0x0D08_0002);
+    publ.create_session().unwrap();
+    let out = publ.create_output_reliable_stream(&mut pub_out, HISTORY).unwrap();
+    publ.create_input_reliable_stream(&mut pub_in, HISTORY).unwrap();
+    let (pb, dw) = (object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::DataWriter));
+    let reqs = [
+        publ.buffer_create_participant_xml(out, p, 0, "<dds><participant/></dds>", REPLACE).unwrap(),
+        publ.buffer_create_topic_xml(out, t, p, topic_xml, REPLACE).unwrap(),
+        publ.buffer_create_publisher_xml(out, pb, p, "", REPLACE).unwrap(),
+        publ.buffer_create_datawriter_xml(out, dw, pb, &blob("Rate", "data_writer"), REPLACE).unwrap(),
+    ];
+    let mut status = [0u8; 4];
+    assert!(publ.run_session_until_all_status(3000, &reqs, &mut status).unwrap());
+    let sample = vec![0x5Au8; size];
+    let started = Instant::now();
+    let mut sent = 0;
+    while sent < count {
+        match publ.buffer_topic(out, dw, &sample) {
+            Ok(_) => {
+                sent += 1;
+                publ.flash_output_streams().unwrap();
+            }
+            // History full: wait for the agent's acknowledgement.
+            Err(xrce_client::Error::WouldBlock) => {
+                publ.run_session_time(1).unwrap();
+            }
+            Err(e) => panic!("{e}"),
+        }
+    }
+    let got = sub.join().unwrap();
+    let rate = got as f64 / started.elapsed().as_secs_f64();
+    let _ = publ.delete_session();
+    assert_eq!(got, count, "every sample arrived");
+    rate
+}
+
+#[test]
+#[ignore = "a measurement; run with --ignored --nocapture"]
+fn throughput_report() {
+    for (size, count) in [(64, 20_000), (3000, 2_000)] {
+        for mode in [Mode::Packet, Mode::Stream] {
+            let hub = Hub::new();
+            let agent = hub_agent(&hub, mode);
+            let rate = throughput((hub.connect(1), hub.connect(2)), mode == Mode::Stream, size, count);
+            println!("custom agent, in-memory medium, {mode:?} mode, {size} B reliable: {rate:.0} samples/s");
+            drop(agent);
+        }
+        let mut agent =
+            xrce_agent::agent::AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"])
+                .expect("agent");
+        let port = agent.local_addr().unwrap().port();
+        let io = || {
+            let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+            socket.connect(("127.0.0.1", port)).unwrap();
+            UdpClientIo { socket }
+        };
+        let rate = throughput((io(), io()), false, size, count);
+        println!("built-in UDP agent, loopback, {size} B reliable: {rate:.0} samples/s");
+        agent.stop().unwrap();
+    }
+}
+
+#[test]
+#[ignore = "a measurement; run with --ignored --nocapture"]
+fn round_trip_report() {
+    for mode in [Mode::Packet, Mode::Stream] {
+        let hub = Hub::new();
+        let agent = hub_agent(&hub, mode);
+        let (median, p99) = round_trip(hub.connect(1), mode == Mode::Stream, 5000);
+        println!("custom agent, in-memory medium, {mode:?} mode: round trip median {median:?}, p99 {p99:?}");
+        drop(agent);
+    }
+}
+
+/// The built-in UDP server, for comparison: packet callbacks over a loopback socket.
+struct UdpClientIo {
+    socket: std::net::UdpSocket,
+}
+
+impl CustomIo for UdpClientIo {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, TransportError> {
+        self.socket.send(buf).map_err(|_| TransportError::Custom(1))
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<usize, TransportError> {
+        let timeout = Duration::from_millis(u64::try_from(timeout_ms.max(1)).unwrap_or(1));
+        self.socket.set_read_timeout(Some(timeout)).map_err(|_| TransportError::Custom(2))?;
+        Ok(self.socket.recv(buf).unwrap_or(0))
+    }
+}
+
+#[test]
+#[ignore = "a measurement; run with --ignored --nocapture"]
+fn round_trip_report_udp_reference() {
+    let mut agent = xrce_agent::agent::AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"])
+        .expect("agent");
+    let port = agent.local_addr().unwrap().port();
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket.connect(("127.0.0.1", port)).unwrap();
+    let (median, p99) = round_trip(UdpClientIo { socket }, false, 5000);
+    println!("built-in UDP agent, loopback: round trip median {median:?}, p99 {p99:?}");
+    agent.stop().unwrap();
+}
