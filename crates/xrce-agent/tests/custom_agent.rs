@@ -430,6 +430,43 @@ fn an_incomplete_endpoint_drops_the_message_not_the_agent() {
     agent.stop().unwrap();
 }
 
+/// The agent API reaches a custom agent's core: a refs file loaded through it (eProsima requires it before
+/// `start`; here either order works) serves its clients' creations by reference.
+#[test]
+fn refs_loaded_through_the_agent_api_serve_creation_by_reference() {
+    let refs = std::env::temp_dir().join(format!("custom_agent_refs_{}.xml", std::process::id()));
+    std::fs::write(
+        &refs,
+        "<dds><profiles>\
+           <participant profile_name=\"custom_participant\"><rtps><name>custom</name></rtps></participant>\
+           <topic profile_name=\"custom_topic\"><name>RefTopic</name><dataType>Blob</dataType></topic>\
+         </profiles></dds>",
+    )
+    .unwrap();
+    let hub = Hub::new();
+    let mut agent = CustomAgent::new("refs", hub_endpoint(), MiddlewareKind::Ced, true, hub.clone()).unwrap();
+    agent.agent().set_verbose_level(0);
+    assert_eq!(agent.agent().load_config_file(&refs).expect("refs load"), 2);
+    std::fs::remove_file(&refs).ok();
+    agent.start().unwrap();
+
+    let (mut out_buf, mut in_buf) = ([0u8; BUF], [0u8; BUF]);
+    let transport = CustomTransport::<_, MTU>::new(hub.connect(4), true).unwrap();
+    let mut s = Session::new(transport, 0x0D09_0001);
+    s.create_session().unwrap();
+    let out = s.create_output_reliable_stream(&mut out_buf, HISTORY).unwrap();
+    s.create_input_reliable_stream(&mut in_buf, HISTORY).unwrap();
+    let p = object_id(1, ObjectKind::Participant);
+    let reqs = [
+        s.buffer_create_participant_ref(out, p, 0, "custom_participant", REPLACE).unwrap(),
+        s.buffer_create_topic_ref(out, object_id(1, ObjectKind::Topic), p, "custom_topic", REPLACE).unwrap(),
+    ];
+    let mut status = [0xFFu8; 2];
+    assert!(s.run_session_until_all_status(3000, &reqs, &mut status).unwrap());
+    assert_eq!(status, [0, 0]);
+    agent.stop().unwrap();
+}
+
 /// A duplicate member name is refused when the agent is built.
 #[test]
 fn a_duplicate_member_is_refused() {

@@ -18,7 +18,10 @@
 //! per endpoint, so peers sharing the transport never corrupt each other's frames. A full channel blocks
 //! the reader: the user's medium buffers meanwhile. `write` is called from the loop thread, as the UDP
 //! server sends; it may block, which delays the other clients as a full socket would. The cost over a
-//! polled descriptor is one channel hop per message.
+//! polled descriptor is one channel hop per message (a session ping's round trip over an in-memory medium
+//! measured the same as over the built-in UDP server, about 35 µs in a debug build). Registering a
+//! descriptor of the user's with the loop instead would save that hop for media that have one, at the
+//! price of a second way to write a transport; the thread serves every medium.
 //!
 //! The core needs a small copyable peer type, and endpoints hold strings: each distinct endpoint (with, in
 //! stream mode, its frame's source address) gets an [`EndpointId`], kept in a bounded table
@@ -54,7 +57,8 @@ const READER: mio::Token = mio::Token(1);
 
 /// The four operations of a custom transport (eProsima's `InitFunction`, `FiniFunction`, `SendMsgFunction`,
 /// `RecvMsgFunction`). They take `&self` because the agent reads on one thread while it writes on another,
-/// as eProsima's do: keep mutable state behind a lock (one per direction keeps them apart).
+/// as eProsima's do: keep mutable state behind a lock (one per direction keeps them apart). After a failed
+/// `read`, `close` and `open` run on the reading thread while `write` may still be called.
 pub trait CustomAgentIo: Send + Sync + 'static {
     /// Opens the medium; called by [`CustomAgent::start`], and again after a failed `read`.
     fn open(&self) -> io::Result<()> {
