@@ -14,8 +14,9 @@
 //! timeout ([`CustomOptions::read_timeout`], also how soon [`CustomAgent::stop`] returns); each message
 //! goes to the agent's event loop ([`EventLoop`]) through a bounded channel, and the reader wakes the
 //! loop's poll through a pipe the loop registers (`mio` allows one `Waker` per poll, the middleware's),
-//! once for any number of messages between two turns; the loop then drains the channel without waiting. Unframing happens on the reader thread too, one decoder
-//! per endpoint, so peers sharing the transport never corrupt each other's frames. A full channel blocks
+//! once for any number of messages between two turns; the loop then drains the channel without waiting.
+//! Unframing happens on the reader thread too, one decoder per endpoint, so peers sharing the transport
+//! never corrupt each other's frames. A full channel blocks
 //! the reader: the user's medium buffers meanwhile. `write` is called from the loop thread, as the UDP
 //! server sends; it may block, which delays the other clients as a full socket would. The cost over a
 //! polled descriptor is one channel hop per message (a session ping's round trip over an in-memory medium
