@@ -372,8 +372,16 @@ fn reopen_on_read_error_open_failure_and_restart() {
     agent.stop().expect("stops");
     assert!(!agent.is_running());
     agent.start().expect("starts again");
-    // Same session, no new CREATE_CLIENT: the agent kept the client across the restart.
+    // A new client speaks first after the restart: it must not take over the first client's endpoint.
+    let (mut out2, mut in2) = ([0u8; BUF], [0u8; BUF]);
+    let mut s2 = Session::new(CustomTransport::<_, MTU>::new(hub.connect(2), false).unwrap(), 0x0D03_0002);
+    s2.create_session().expect("second session");
+    let out_2 = s2.create_output_reliable_stream(&mut out2, HISTORY).unwrap();
+    s2.create_input_reliable_stream(&mut in2, HISTORY).unwrap();
+    create(&mut s2, out_2, "second client after the restart");
+    // Same session, no new CREATE_CLIENT: the agent kept the first client and its endpoint across the restart.
     create(&mut s, out, "after the restart");
+    create(&mut s2, out_2, "second client again");
     drop(agent);
     assert_eq!(hub.closes.load(Ordering::SeqCst), 3, "closed by stop and by drop");
 }

@@ -33,7 +33,7 @@ mod reader;
 mod shell;
 
 use std::io;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::sync_channel;
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -241,7 +241,8 @@ pub enum CustomAgentError {
 
 /// A running agent's threads.
 struct Running {
-    server: JoinHandle<io::Result<()>>,
+    /// Gives the endpoint table back when the loop ends.
+    server: JoinHandle<io::Result<EndpointTable>>,
     reader: JoinHandle<()>,
 }
 
@@ -257,6 +258,10 @@ pub struct CustomAgent {
     agent: Agent<EndpointId>,
     stop: Arc<AtomicBool>,
     running: Option<Running>,
+    /// The endpoints of the last run, kept for the next: the core keeps its clients across a restart.
+    table: Option<EndpointTable>,
+    /// Endpoint ids drawn so far (see [`EndpointTable`]).
+    next_id: Arc<AtomicU64>,
 }
 
 impl std::fmt::Debug for CustomAgent {
@@ -304,6 +309,8 @@ impl CustomAgent {
             agent,
             stop: Arc::new(AtomicBool::new(false)),
             running: None,
+            table: None,
+            next_id: Arc::default(),
         })
     }
 
@@ -365,7 +372,7 @@ impl CustomAgent {
         }
     }
 
-    fn spawn(&self) -> io::Result<Running> {
+    fn spawn(&mut self) -> io::Result<Running> {
         let looped = EventLoop::new(self.agent.core())?;
         let queue = self.options.queue.max(1);
         let (tx, rx) = sync_channel(queue);
@@ -384,6 +391,9 @@ impl CustomAgent {
             stop: self.stop.clone(),
         };
         let reader = std::thread::Builder::new().name("xrce-custom-rx".into()).spawn(move || reader.run())?;
+        let mut table =
+            self.table.take().unwrap_or_else(|| EndpointTable::new(self.options.max_endpoints, self.next_id.clone()));
+        table.set_max(self.options.max_endpoints);
         let mut shell = Shell {
             name: self.name.clone(),
             io: self.io.clone(),
@@ -392,7 +402,7 @@ impl CustomAgent {
             spare: spare_tx,
             wake,
             woken,
-            table: EndpointTable::new(self.options.max_endpoints),
+            table,
             stash: None,
             frame: Vec::new(),
         };
@@ -403,7 +413,7 @@ impl CustomAgent {
                     registry.register(&mut shell.woken, READER, mio::Interest::READABLE)?;
                     Ok(shell)
                 })
-                .map(drop)
+                .map(|shell| shell.table)
         });
         match served {
             Ok(server) => Ok(Running { server, reader }),
@@ -440,7 +450,7 @@ impl CustomAgent {
         tracing::info!(transport = %self.name, "custom agent stopped");
         let name = self.name.clone();
         match served {
-            Ok(Ok(())) => {}
+            Ok(Ok(table)) => self.table = Some(table),
             Ok(Err(source)) => return Err(CustomAgentError::Io { name, source }),
             Err(_) => return Err(CustomAgentError::Io { name, source: io::Error::other("event loop panicked") }),
         }

@@ -4,6 +4,7 @@
 
 use std::collections::HashMap;
 use std::io::{self, Read};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::Arc;
 
@@ -133,14 +134,15 @@ fn write_all(io: &dyn CustomAgentIo, to: &Endpoint, mut rest: &[u8]) -> io::Resu
     Ok(())
 }
 
-/// The endpoints seen, each under an id the core uses as its peer: ids are never reused, and at most `max`
-/// endpoints are kept; a new one beyond that evicts the least recently used, whose client is reached again
-/// as soon as it sends (under a new id).
+/// The endpoints seen, each under an id the core uses as its peer: ids are never reused (the counter
+/// outlives a table lost with a failed loop, and the table outlives a restart, because the core keeps its
+/// clients' ids across both), and at most `max` endpoints are kept; a new one beyond that evicts the least
+/// recently used, whose client is reached again as soon as it sends (under a new id).
 pub(super) struct EndpointTable {
     ids: HashMap<(Endpoint, Option<u8>), EndpointId>,
     entries: HashMap<EndpointId, Entry>,
     max: usize,
-    next: u64,
+    next: Arc<AtomicU64>,
     clock: u64,
 }
 
@@ -150,8 +152,14 @@ struct Entry {
 }
 
 impl EndpointTable {
-    pub fn new(max: usize) -> Self {
-        Self { ids: HashMap::new(), entries: HashMap::new(), max: max.max(1), next: 0, clock: 0 }
+    /// An empty table drawing ids from `next`.
+    pub fn new(max: usize, next: Arc<AtomicU64>) -> Self {
+        Self { ids: HashMap::new(), entries: HashMap::new(), max: max.max(1), next, clock: 0 }
+    }
+
+    /// Changes the bound (applies from the next new endpoint).
+    pub fn set_max(&mut self, max: usize) {
+        self.max = max.max(1);
     }
 
     /// The id of `from` (with its frame address), made if new; and the id evicted to make room, if any.
@@ -164,9 +172,16 @@ impl EndpointTable {
             }
             return (id, None);
         }
-        let evicted = if self.entries.len() >= self.max { self.evict() } else { None };
-        let id = EndpointId(self.next);
-        self.next = self.next.wrapping_add(1);
+        let mut evicted = None;
+        while self.entries.len() >= self.max {
+            // Past a lowered bound, the core learns of the last eviction only; the others' ids are never
+            // reused, so at worst it keeps an entry for an endpoint no one will send from.
+            match self.evict() {
+                Some(id) => evicted = Some(id),
+                None => break,
+            }
+        }
+        let id = EndpointId(self.next.fetch_add(1, Ordering::Relaxed));
         tracing::debug!(endpoint = %key.0, address = ?key.1, ?id, "new custom endpoint");
         self.ids.insert(key.clone(), id);
         self.entries.insert(id, Entry { key, used: self.clock });
@@ -210,7 +225,7 @@ mod tests {
 
     #[test]
     fn equal_endpoints_share_an_id_and_addresses_tell_peers_apart() {
-        let mut t = EndpointTable::new(8);
+        let mut t = EndpointTable::new(8, Arc::default());
         let (a, _) = t.intern(endpoint(1), None);
         assert_eq!(t.intern(endpoint(1), None), (a, None));
         let (b, _) = t.intern(endpoint(2), None);
@@ -224,7 +239,7 @@ mod tests {
     /// is not reused, so the core never sends one client's messages to another.
     #[test]
     fn the_least_recently_used_endpoint_is_evicted() {
-        let mut t = EndpointTable::new(2);
+        let mut t = EndpointTable::new(2, Arc::default());
         let (one, _) = t.intern(endpoint(1), None);
         let (two, _) = t.intern(endpoint(2), None);
         assert!(t.get(one).is_some(), "one used after two");
