@@ -6,6 +6,7 @@
 pub mod batch;
 #[cfg(target_os = "linux")]
 pub mod canfd;
+pub mod custom;
 pub mod discovery;
 pub mod drive;
 pub mod home;
