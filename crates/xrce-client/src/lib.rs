@@ -4,7 +4,7 @@
 //!   fixed by const parameters). Bytes and time in, bytes out, callbacks for what the agent says.
 //! * [`Session`]: the same over a [`Transport`] with the `run_session_*` family of the C API.
 //! * [`transport`]: the transport trait, custom transports (framed or not) and, with `std`, UDP, TCP and
-//!   agent discovery.
+//!   agent discovery, with `serial` (Unix) serial lines and with `can` (Linux) CAN FD.
 //! * [`WriteAccess`]: the `uxr_buffer_*` entity and data functions, on both.
 //!
 //! `docs/client-api.md` maps every `uxr_*` function and constant to its counterpart here.
@@ -179,9 +179,13 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 /// Everything an application needs in scope.
 pub mod prelude {
     pub use crate::session::ping::{ping_agent, ping_agent_attempts};
+    #[cfg(all(feature = "can", target_os = "linux"))]
+    pub use crate::transport::CanTransport;
     #[cfg(feature = "std")]
     pub use crate::transport::{discovery, IpProtocol, TcpTransport, UdpTransport};
     pub use crate::transport::{CustomIo, CustomTransport, Transport};
+    #[cfg(all(feature = "serial", unix))]
+    pub use crate::transport::{SerialSettings, SerialTransport};
     #[cfg(feature = "std")]
     pub use crate::StdClock;
     pub use crate::{
