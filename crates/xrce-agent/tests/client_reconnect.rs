@@ -582,3 +582,39 @@ fn hundred_clients_recover_after_agent_restart() {
     );
     assert_eq!(times.len(), CLIENTS as usize, "clients recovered");
 }
+
+/// A UDP transport counting the messages it sends.
+struct Counting {
+    inner: UdpTransport,
+    sent: Arc<AtomicUsize>,
+}
+
+impl Transport for Counting {
+    fn send(&mut self, msg: &[u8]) -> Result<(), TransportError> {
+        self.sent.fetch_add(1, Ordering::Relaxed);
+        self.inner.send(msg)
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
+        self.inner.recv(buf, timeout_ms)
+    }
+}
+
+/// While the agent is gone, a UDP client's sends meet the ICMP "port unreachable" of the previous ones: each is a
+/// transport error, yet the client retries on its back-off, not in a loop (a few dozen messages in 4 s).
+#[test]
+fn a_dead_udp_port_is_retried_on_the_back_off() {
+    let mut instance = agent_on(0);
+    let agent: SocketAddr = format!("127.0.0.1:{}", instance.local_addr().unwrap().port()).parse().unwrap();
+    let sent = Arc::new(AtomicUsize::new(0));
+    let transport = Counting { inner: UdpTransport::connect(agent).unwrap(), sent: sent.clone() };
+    let mut s: Session<'_, Counting, StdClock, App> =
+        Session::new(transport, 0x5AB0_0031).with_callbacks(App::default());
+    s.create_session().unwrap();
+    instance.stop().unwrap();
+    let before = sent.load(Ordering::Relaxed);
+    s.run_session_timeout(4000).unwrap();
+    let during = sent.load(Ordering::Relaxed) - before;
+    println!("dead UDP port: {during} messages sent in 4 s");
+    assert_eq!(s.callbacks().timeline.events(), ["lost"]);
+    assert!(during < 60, "{during} messages in 4 s");
+}

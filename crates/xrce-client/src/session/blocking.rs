@@ -57,9 +57,11 @@ struct Io<T, K, const MTU: usize> {
     transport: T,
     clock: K,
     buf: [u8; MTU],
-    /// The transport failed while reconnection is on: when to reopen it next ([`WORKING`] when it works), and
-    /// the wait after that in milliseconds.
+    /// The transport failed while reconnection is on: when to reopen it next ([`WORKING`] when it works).
     reopen_at: i64,
+    /// The wait before the next reopening, in milliseconds; it grows with every failure until the session is
+    /// back (0: no failure since), so a transport that fails right after each reopening (UDP to a dead port:
+    /// every send meets the ICMP error of the previous one) is not reopened and retried in a tight loop.
     reopen_ms: u16,
     /// Entities and reads to create again after a re-creation (boxed: the session stays small on the stack).
     #[cfg(feature = "std")]
@@ -110,10 +112,14 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             return Err(e.into());
         }
         let now = self.clock.now_nanos();
-        core.reconnect(now);
+        if core.state() == SessionState::Established {
+            core.reconnect(now);
+        }
         if !self.broken() {
-            self.reopen_at = now;
-            self.reopen_ms = config.retry_min_ms.max(1);
+            // The first failure reopens at once (a TCP connection reset by a live agent); later ones back off.
+            self.reopen_at = now + i64::from(self.reopen_ms) * MILLIS;
+            self.reopen_ms =
+                self.reopen_ms.saturating_mul(2).clamp(config.retry_min_ms.max(1), config.retry_max_ms.max(1));
         }
         Ok(())
     }
@@ -135,7 +141,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         } else {
             let max = core.reconnect_config().map_or(1000, |c| c.retry_max_ms.max(1));
             self.reopen_at = now + i64::from(self.reopen_ms) * MILLIS;
-            self.reopen_ms = self.reopen_ms.saturating_mul(2).min(max);
+            self.reopen_ms = self.reopen_ms.saturating_mul(2).clamp(1, max);
         }
     }
 
@@ -154,6 +160,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             match event {
                 SessionEvent::Lost => h.on_session_lost(),
                 SessionEvent::Restored { recreated } => {
+                    self.reopen_ms = 0;
                     #[cfg(feature = "std")]
                     if recreated {
                         self.start_replay(core);
