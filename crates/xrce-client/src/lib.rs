@@ -24,7 +24,10 @@ pub use object::{object_id, DeliveryControl, Durability, History, QoS, Reliabili
 pub use session::ping::{ping_agent, ping_agent_attempts};
 #[cfg(feature = "std")]
 pub use session::StdClock;
-pub use session::{Callbacks, Clock, Outputs, Prepared, ServiceNames, Session, SessionCore, SessionState, TimeSample};
+pub use session::{
+    Callbacks, Clock, Outputs, Prepared, Reconnect, ServiceNames, Session, SessionCore, SessionEvent, SessionState,
+    TimeSample,
+};
 pub use transport::{CustomIo, CustomTransport, Transport, TransportError};
 pub use xrce_proto::{ObjectId, ObjectKind, SampleIdentity, StreamId, StreamKind};
 
@@ -187,8 +190,8 @@ pub mod prelude {
     pub use crate::StdClock;
     pub use crate::{
         object_id, stream_id, stream_id_from_raw, Callbacks, DeliveryControl, Durability, Error, History, ObjectId,
-        ObjectKind, Outputs, QoS, Reliability, SampleIdentity, ServiceNames, Session, SessionCore, StreamDirection,
-        StreamId, StreamKind, WriteAccess, WriteAccessExt, REPLACE, REUSE, STATUS_NONE, STATUS_OK, STATUS_OK_MATCHED,
-        TIMEOUT_INF,
+        ObjectKind, Outputs, QoS, Reconnect, Reliability, SampleIdentity, ServiceNames, Session, SessionCore,
+        SessionEvent, StreamDirection, StreamId, StreamKind, WriteAccess, WriteAccessExt, REPLACE, REUSE, STATUS_NONE,
+        STATUS_OK, STATUS_OK_MATCHED, TIMEOUT_INF,
     };
 }
