@@ -126,8 +126,7 @@ fn read_hex(hex: &[u8], out: &mut [u8]) -> bool {
         return false;
     }
     for (pair, o) in hex.chunks_exact(2).zip(out.iter_mut()) {
-        let (Some(hi), Some(lo)) = (pair.first().and_then(|&c| nibble(c)), pair.get(1).and_then(|&c| nibble(c)))
-        else {
+        let (Some(hi), Some(lo)) = (pair.first().and_then(|&c| nibble(c)), pair.get(1).and_then(|&c| nibble(c))) else {
             return false;
         };
         *o = (hi << 4) | lo;
