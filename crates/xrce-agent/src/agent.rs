@@ -326,11 +326,12 @@ impl AgentInstance {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
                 let agent = Agent::<SocketAddr>::with_dds(
                     kind,
-                    CoreConfig { info_port: port, ..CoreConfig::default() },
+                    CoreConfig { info_port: port, ..core_config(&config) },
                     graph,
                     dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
+                lock(&agent.core).set_peer_address(|peer| Some(*peer));
                 let addr = bind_addr(&config.transport, port);
                 let mut server =
                     UdpServer::bind(addr, agent.core()).map_err(cannot_open(format!("UDP port {addr}")))?;
@@ -346,11 +347,12 @@ impl AgentInstance {
             Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
                 let agent = Agent::<ConnId>::with_dds(
                     kind,
-                    CoreConfig { info_port: port, ..CoreConfig::default() },
+                    CoreConfig { info_port: port, ..core_config(&config) },
                     graph,
                     dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
+                lock(&agent.core).set_peer_address(|conn| Some(conn.peer));
                 let addr = bind_addr(&config.transport, port);
                 let mut server =
                     TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
@@ -448,6 +450,18 @@ impl Drop for AgentInstance {
 #[cfg(target_os = "linux")]
 type Started = (AgentHandle, JoinHandle<std::io::Result<()>>, Option<SocketAddr>);
 
+/// The core's settings from the command line (`--client-timeout`, `--allow`, `--psk-file`).
+fn core_config(config: &Config) -> CoreConfig {
+    if config.auth.is_enabled() {
+        tracing::info!(allow = config.auth.allow.len(), psk = config.auth.psk.is_some(), "client authentication on");
+    }
+    CoreConfig {
+        remove_silent_clients_after: config.client_timeout,
+        auth: config.auth.clone(),
+        ..CoreConfig::default()
+    }
+}
+
 /// The DDS middleware's options from the command line.
 fn dds_options(config: &Config) -> DdsOptions {
     DdsOptions {
@@ -465,7 +479,7 @@ fn start_serial(
     lines: Vec<crate::transport::serial::Line>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    let agent = Agent::with_dds(kind, CoreConfig::default(), to_graph_mode(config.ros_graph), dds_options(config))?;
+    let agent = Agent::with_dds(kind, core_config(config), to_graph_mode(config.ros_graph), dds_options(config))?;
     load_refs(config, &agent.profiles)?;
     let server = crate::transport::serial::SerialServer::new(lines, agent.core());
     tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");
