@@ -1,0 +1,202 @@
+//! No ghost clients and optional authentication (issue 13), end to end over UDP on loopback with `-m ced`:
+//! a client killed with SIGKILL loses its datawriter within its timeout + 1 s while an idle client that runs
+//! its session is kept; reconnecting with a new session id or a new key from the same endpoint leaves no
+//! ghost; `--psk-file` admits our client with the key and refuses one without it.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::net::{SocketAddr, UdpSocket};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{create_client_msg, Client};
+use xrce_agent::agent::{Agent, AgentHandle, AgentInstance};
+use xrce_agent::transport::lock;
+use xrce_client::prelude::*;
+use xrce_proto::{ClientKey, ObjectId, ObjectKind};
+
+const CHILD_AGENT: &str = "XRCE_GHOSTS_CHILD_AGENT";
+const CHILD_KEY: &str = "XRCE_GHOSTS_CHILD_KEY";
+const WRITER: ObjectId = ObjectId::new(1, ObjectKind::DataWriter);
+const PARTICIPANT: ObjectId = ObjectId::new(1, ObjectKind::Participant);
+
+fn start(args: &[&str]) -> (AgentInstance, Agent<SocketAddr>, SocketAddr) {
+    let mut full = vec!["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"];
+    full.extend_from_slice(args);
+    let instance = AgentInstance::create(full).expect("agent starts");
+    let port = instance.local_addr().expect("bound").port();
+    let AgentHandle::Udp(agent) = instance.agent().clone() else { panic!("a UDP agent") };
+    (instance, agent, SocketAddr::from(([127, 0, 0, 1], port)))
+}
+
+fn has(agent: &Agent<SocketAddr>, key: u32, id: ObjectId) -> bool {
+    lock(&agent.core()).has_object(ClientKey::from_u32(key), id)
+}
+
+fn has_client(agent: &Agent<SocketAddr>, key: u32) -> bool {
+    lock(&agent.core()).has_client(ClientKey::from_u32(key))
+}
+
+/// Polls `pred` every 10 ms for up to `limit`; how long it took to hold, if it did.
+fn time_until(limit: Duration, pred: impl Fn() -> bool) -> Option<Duration> {
+    let start = Instant::now();
+    while start.elapsed() <= limit {
+        if pred() {
+            return Some(start.elapsed());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    pred().then(|| start.elapsed())
+}
+
+/// Our client with a datawriter (binary entities, reliable stream): the session of the child process and of
+/// the authentication test.
+fn client_with_writer<'a>(
+    session: &mut Session<'a, UdpTransport, StdClock>,
+    out_buf: &'a mut [u8],
+    in_buf: &'a mut [u8],
+) -> xrce_client::Result<()> {
+    let out = session.create_output_reliable_stream(out_buf, 4)?;
+    session.create_input_reliable_stream(in_buf, 4)?;
+    let p = object_id(1, ObjectKind::Participant);
+    let t = object_id(1, ObjectKind::Topic);
+    let publ = object_id(1, ObjectKind::Publisher);
+    let requests = [
+        session.buffer_create_participant_bin(out, p, 0, None, REPLACE)?,
+        session.buffer_create_topic_bin(out, t, p, "ghosts", "G", REPLACE)?,
+        session.buffer_create_publisher_bin(out, publ, p, REPLACE)?,
+        session.buffer_create_datawriter_bin(
+            out,
+            object_id(1, ObjectKind::DataWriter),
+            publ,
+            t,
+            QoS::default(),
+            REPLACE,
+        )?,
+    ];
+    let mut status = [0u8; 4];
+    assert!(session.run_session_until_all_status(2000, &requests, &mut status)?, "entities: {status:?}");
+    Ok(())
+}
+
+/// Not a test of its own: the child process of the SIGKILL test (this binary run again with this name). It
+/// creates a datawriter, says READY, then idles, running its session as an application's loop does.
+#[test]
+fn ghost_child_process() {
+    let (Ok(agent), Ok(key)) = (std::env::var(CHILD_AGENT), std::env::var(CHILD_KEY)) else { return };
+    let agent: SocketAddr = agent.parse().expect("agent address");
+    let key: u32 = key.parse().expect("key");
+    let mut session = Session::new(UdpTransport::connect(agent).expect("socket"), key).with_session_id(0x01);
+    session.create_session().expect("session");
+    let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
+    client_with_writer(&mut session, &mut out_buf, &mut in_buf).expect("writer");
+    println!("READY");
+    loop {
+        let _ = session.run_session_time(100);
+    }
+}
+
+/// The child process, killed (SIGKILL) however the test ends.
+struct KillOnDrop(std::process::Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn a_client_killed_with_sigkill_loses_its_writer_within_its_timeout_and_an_idle_one_is_kept() {
+    const TIMEOUT: Duration = Duration::from_secs(2);
+    let (_instance, agent, addr) = start(&["--client-timeout", "2"]);
+    let key = 0x6400_0000 | (std::process::id() & 0xFFFF);
+    let mut child = KillOnDrop(
+        Command::new(std::env::current_exe().expect("test binary"))
+            .args(["--exact", "ghost_child_process", "--nocapture", "--test-threads", "1"])
+            .env(CHILD_AGENT, addr.to_string())
+            .env(CHILD_KEY, key.to_string())
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("child client"),
+    );
+    let stdout = child.0.stdout.take().expect("child stdout");
+    // libtest prints "test ghost_child_process ... " before it on the same line.
+    let ready = BufReader::new(stdout).lines().map_while(Result::ok).any(|line| line.trim_end().ends_with("READY"));
+    assert!(ready, "the child client created its writer");
+    assert!(has(&agent, key, WRITER));
+    // Idle (it sends nothing of its own) but running its session: it answers the probes and stays.
+    std::thread::sleep(3 * TIMEOUT);
+    assert!(has(&agent, key, WRITER), "an idle client that answers probes is kept past 3 timeouts");
+    child.0.kill().expect("SIGKILL");
+    let killed = Instant::now();
+    let _ = child.0.wait();
+    let gone = time_until(TIMEOUT + Duration::from_secs(2), || !has(&agent, key, WRITER));
+    let after = gone.map(|_| killed.elapsed());
+    println!("writer deleted {after:?} after SIGKILL (timeout {TIMEOUT:?})");
+    let after = after.expect("the writer of the killed client is deleted");
+    assert!(after <= TIMEOUT + Duration::from_secs(1), "{after:?}");
+    assert!(!has_client(&agent, key));
+}
+
+#[test]
+fn reconnecting_with_a_new_session_id_or_a_new_key_from_the_same_endpoint_leaves_no_ghost() {
+    let (_instance, agent, addr) = start(&[]);
+    let socket = UdpSocket::bind("127.0.0.1:0").expect("socket");
+    let send = |m: &[u8]| {
+        socket.send_to(m, addr).expect("send");
+    };
+    let created = |key: u32| time_until(Duration::from_secs(5), || has(&agent, key, PARTICIPANT)).is_some();
+    let participant = |key: u32, session: u8| {
+        let mut c = Client::new(key);
+        c.session = session;
+        let p = c.pubsub_entities("ghost");
+        send(&create_client_msg(key, session));
+        send(&p[0]);
+    };
+    let (a, b) = (0x0A0A_0001, 0x0B0B_0002);
+    participant(a, 0x01);
+    assert!(created(a));
+    // The same client, new session id (eProsima deletes the old session's entities too).
+    send(&create_client_msg(a, 0x02));
+    assert!(time_until(Duration::from_secs(5), || has_client(&agent, a) && !has(&agent, a, PARTICIPANT)).is_some());
+    participant(a, 0x02);
+    assert!(created(a));
+    // A reboot: a new key from the same address and port. The old session does not answer (nobody reads the
+    // socket here), so it goes within the 1 s grace.
+    participant(b, 0x01);
+    assert!(created(b));
+    let gone = time_until(Duration::from_secs(3), || !has_client(&agent, a));
+    println!("old key removed {gone:?} after the new key's session");
+    assert!(gone.is_some(), "the ghost of the old key is removed");
+    assert!(has(&agent, b, PARTICIPANT));
+}
+
+#[test]
+fn a_pre_shared_key_admits_our_client_and_refuses_one_without_it() {
+    let dir = std::env::temp_dir().join(format!("xrce-ghosts-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let file = dir.join("psk");
+    std::fs::write(&file, "f00dfeedf00dfeedf00dfeedf00dfeed\n").expect("psk file");
+    let (_instance, agent, addr) = start(&["--psk-file", file.to_str().expect("path")]);
+    let transport = || UdpTransport::connect(addr).expect("socket");
+
+    // Without a token (what eProsima's C client sends): STATUS_ERR_DENIED.
+    let mut plain = Session::new(transport(), 0x5EC0_0001);
+    match plain.create_session_retries(2) {
+        Err(Error::Refused(status)) => assert_eq!(status, 0x83, "STATUS_ERR_DENIED"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+    // With a token made with another key: refused too.
+    let mut wrong = Session::new(transport(), 0x5EC0_0002).with_pre_shared_key(b"0123456789abcdef0123456789abcdef");
+    assert!(matches!(wrong.create_session_retries(2), Err(Error::Refused(0x83))));
+    // With the key: a session and entities.
+    let mut good = Session::new(transport(), 0x5EC0_0003).with_pre_shared_key(b"f00dfeedf00dfeedf00dfeedf00dfeed");
+    good.create_session().expect("admitted");
+    let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
+    client_with_writer(&mut good, &mut out_buf, &mut in_buf).expect("writer");
+    assert!(has(&agent, 0x5EC0_0003, WRITER));
+    assert!(!has_client(&agent, 0x5EC0_0001) && !has_client(&agent, 0x5EC0_0002));
+    let _ = std::fs::remove_dir_all(&dir);
+}
