@@ -112,11 +112,11 @@ fn unreachable_hmac() -> HmacSha256 {
 }
 
 fn write_hex(bytes: &[u8], out: &mut [u8]) {
-    const DIGITS: &[u8; 16] = b"0123456789abcdef";
+    let digit = |n: u8| if n < 10 { b'0' + n } else { b'a' + (n - 10) };
     for (b, pair) in bytes.iter().zip(out.chunks_exact_mut(2)) {
         if let [hi, lo] = pair {
-            *hi = DIGITS[usize::from(b >> 4)];
-            *lo = DIGITS[usize::from(b & 0x0f)];
+            *hi = digit(b >> 4);
+            *lo = digit(b & 0x0f);
         }
     }
 }
