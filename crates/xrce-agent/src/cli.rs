@@ -926,7 +926,7 @@ mod tests {
         use std::time::Duration;
         assert_eq!(ok("udp4 -p 1 --client-timeout 2.5").client_timeout, Some(Duration::from_millis(2500)));
         assert_eq!(ok("udp4 -p 1 --client-timeout 0").client_timeout, None);
-        assert_eq!(rejected("udp4 -p 1 --client-timeout -1"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p 1 --client-timeout=-1"), ErrorKind::ValueValidation);
         assert_eq!(rejected("udp4 -p 1 --client-timeout soon"), ErrorKind::ValueValidation);
         let c = ok("serial -D /dev/x --allow 0xAABBCCDD --allow *@10.0.0.0/8");
         assert_eq!(c.auth.allow.len(), 2, "--allow accumulates");

@@ -120,7 +120,8 @@ fn a_silent_client_is_probed_from_half_its_timeout_then_removed_with_its_entitie
     assert!(quiet.is_empty(), "no probe before half the timeout: {quiet:?}");
     let probing = run(&mut core, t0 + Duration::from_millis(4_900), t0 + Duration::from_millis(9_900));
     let count = |kind| probing.iter().filter(|(to, id, _)| *to == 7 && *id == kind).count();
-    assert_eq!((count(GET_INFO), count(HEARTBEAT)), (4, 4), "{probing:?}");
+    // GET_INFO joins from the second probe on (the C client's INFO answer is malformed).
+    assert_eq!((count(GET_INFO), count(HEARTBEAT)), (3, 4), "{probing:?}");
     assert!(has_participant(&core, A));
     run(&mut core, t0 + Duration::from_millis(9_900), t0 + 10 * SECOND);
     assert!(!core.has_client(ClientKey::from_u32(A)), "removed at the timeout");
