@@ -20,6 +20,7 @@
 //! One timer per client, at `last heard + T/2` while it talks: a turn every `T/2` at most, not every
 //! heartbeat period.
 
+use std::collections::HashMap;
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};
@@ -145,6 +146,17 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     }
 }
 
+/// The keyed clients each endpoint created, so a new session from an endpoint finds its predecessors
+/// without scanning the client table. Entries of clients gone or moved are pruned when met.
+#[derive(Debug)]
+pub(super) struct CreatedFrom<E>(HashMap<E, Vec<ClientKey>>);
+
+impl<E> Default for CreatedFrom<E> {
+    fn default() -> Self {
+        Self(HashMap::new())
+    }
+}
+
 impl<E, M> AgentCore<E, M>
 where
     E: Copy + Eq + Hash + Debug,
@@ -162,8 +174,20 @@ where
     /// A new session from `from` with `key`: other keyed clients bound to that endpoint may be what the
     /// client was before a reboot; each is probed at once.
     pub(super) fn suspect_endpoint_peers(&mut self, from: E, key: ClientKey, now: Instant) {
-        let others: Vec<ClientKey> =
-            self.clients.values().filter(|c| c.key != key && c.endpoint == Some(from)).map(|c| c.key).collect();
+        let clients = &self.clients;
+        let created = self.created_from.0.entry(from).or_default();
+        created.retain(|k| clients.get(k).is_some_and(|c| c.endpoint == Some(from)));
+        let others: Vec<ClientKey> = created.iter().copied().filter(|k| *k != key).collect();
+        if !created.contains(&key) {
+            created.push(key);
+        }
+        if self.created_from.0.len() > 2 * self.clients.len() + 1024 {
+            let clients = &self.clients;
+            self.created_from.0.retain(|ep, keys| {
+                keys.retain(|k| clients.get(k).is_some_and(|c| c.endpoint == Some(*ep)));
+                !keys.is_empty()
+            });
+        }
         for other in others {
             tracing::debug!(client = %other, peer = ?from, new_client = %key, "new session from this client's endpoint: probing it");
             self.suspect(other, now);

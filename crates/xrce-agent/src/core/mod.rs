@@ -115,6 +115,8 @@ pub struct AgentCore<E, M> {
     stats: CoreStats,
     /// Client authentication state ([`auth`]).
     auth: auth::Gate<E>,
+    /// The clients each endpoint created ([`liveness`]).
+    created_from: liveness::CreatedFrom<E>,
 }
 
 impl<E: Debug, M> Debug for AgentCore<E, M> {
@@ -152,6 +154,7 @@ where
             last_now: None,
             stats: CoreStats::default(),
             auth: auth::Gate::default(),
+            created_from: liveness::CreatedFrom::default(),
         }
     }
 
