@@ -1,9 +1,13 @@
 //! No ghost clients and optional authentication (issue 13), end to end over UDP on loopback with `-m ced`:
 //! a client killed with SIGKILL loses its datawriter within its timeout + 1 s while an idle client that runs
 //! its session is kept; reconnecting with a new session id or a new key from the same endpoint leaves no
-//! ghost; `--psk-file` admits our client with the key and refuses one without it.
+//! ghost; `--psk-file` admits our client with the key and refuses one without it. The DDS variant (`-m dds`,
+//! ignored: it starts DDS participants) checks that a DDS peer loses the killed client's datareader:
+//!
+//!   ../shared/dds-peers/netns.sh xdds cargo test -p xrce-agent --test ghosts -- --ignored --test-threads 1
 
 mod common;
+mod netns;
 
 use std::io::{BufRead, BufReader};
 use std::net::{SocketAddr, UdpSocket};
@@ -18,6 +22,9 @@ use xrce_proto::{ClientKey, ObjectId, ObjectKind};
 
 const CHILD_AGENT: &str = "XRCE_GHOSTS_CHILD_AGENT";
 const CHILD_KEY: &str = "XRCE_GHOSTS_CHILD_KEY";
+/// Set: the child creates a datareader on [`DDS_TOPIC`] instead of a datawriter.
+const CHILD_READER: &str = "XRCE_GHOSTS_CHILD_READER";
+const DDS_TOPIC: &str = "GhostsTopic";
 const WRITER: ObjectId = ObjectId::new(1, ObjectKind::DataWriter);
 const PARTICIPANT: ObjectId = ObjectId::new(1, ObjectKind::Participant);
 
@@ -50,31 +57,43 @@ fn time_until(limit: Duration, pred: impl Fn() -> bool) -> Option<Duration> {
     pred().then(|| start.elapsed())
 }
 
-/// Our client with a datawriter (binary entities, reliable stream): the session of the child process and of
-/// the authentication test.
+/// Our client with a datawriter on topic `ghosts` (binary entities, reliable stream): the session of the
+/// child process and of the authentication test.
 fn client_with_writer<'a>(
     session: &mut Session<'a, UdpTransport, StdClock>,
     out_buf: &'a mut [u8],
     in_buf: &'a mut [u8],
 ) -> xrce_client::Result<()> {
+    client_with_endpoint(session, out_buf, in_buf, false)
+}
+
+/// As [`client_with_writer`], or with a datareader on [`DDS_TOPIC`] (type `HelloWorld`).
+fn client_with_endpoint<'a>(
+    session: &mut Session<'a, UdpTransport, StdClock>,
+    out_buf: &'a mut [u8],
+    in_buf: &'a mut [u8],
+    reader: bool,
+) -> xrce_client::Result<()> {
     let out = session.create_output_reliable_stream(out_buf, 4)?;
     session.create_input_reliable_stream(in_buf, 4)?;
     let p = object_id(1, ObjectKind::Participant);
     let t = object_id(1, ObjectKind::Topic);
-    let publ = object_id(1, ObjectKind::Publisher);
-    let requests = [
+    let (publ, sub) = (object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::Subscriber));
+    let (dw, dr) = (object_id(1, ObjectKind::DataWriter), object_id(1, ObjectKind::DataReader));
+    let (topic, type_name) = if reader { (DDS_TOPIC, "HelloWorld") } else { ("ghosts", "G") };
+    let mut requests = [
         session.buffer_create_participant_bin(out, p, 0, None, REPLACE)?,
-        session.buffer_create_topic_bin(out, t, p, "ghosts", "G", REPLACE)?,
-        session.buffer_create_publisher_bin(out, publ, p, REPLACE)?,
-        session.buffer_create_datawriter_bin(
-            out,
-            object_id(1, ObjectKind::DataWriter),
-            publ,
-            t,
-            QoS::default(),
-            REPLACE,
-        )?,
+        session.buffer_create_topic_bin(out, t, p, topic, type_name, REPLACE)?,
+        0,
+        0,
     ];
+    if reader {
+        requests[2] = session.buffer_create_subscriber_bin(out, sub, p, REPLACE)?;
+        requests[3] = session.buffer_create_datareader_bin(out, dr, sub, t, QoS::default(), REPLACE)?;
+    } else {
+        requests[2] = session.buffer_create_publisher_bin(out, publ, p, REPLACE)?;
+        requests[3] = session.buffer_create_datawriter_bin(out, dw, publ, t, QoS::default(), REPLACE)?;
+    }
     let mut status = [0u8; 4];
     assert!(session.run_session_until_all_status(2000, &requests, &mut status)?, "entities: {status:?}");
     Ok(())
@@ -90,7 +109,8 @@ fn ghost_child_process() {
     let mut session = Session::new(UdpTransport::connect(agent).expect("socket"), key).with_session_id(0x01);
     session.create_session().expect("session");
     let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
-    client_with_writer(&mut session, &mut out_buf, &mut in_buf).expect("writer");
+    let reader = std::env::var_os(CHILD_READER).is_some();
+    client_with_endpoint(&mut session, &mut out_buf, &mut in_buf, reader).expect("entities");
     println!("READY");
     loop {
         let _ = session.run_session_time(100);
@@ -107,24 +127,31 @@ impl Drop for KillOnDrop {
     }
 }
 
+/// Starts the child client process; returns once it created its entities.
+fn spawn_child(addr: SocketAddr, key: u32, reader: bool) -> KillOnDrop {
+    let mut command = Command::new(std::env::current_exe().expect("test binary"));
+    command
+        .args(["--exact", "ghost_child_process", "--nocapture", "--test-threads", "1"])
+        .env(CHILD_AGENT, addr.to_string())
+        .env(CHILD_KEY, key.to_string())
+        .stdout(Stdio::piped());
+    if reader {
+        command.env(CHILD_READER, "1");
+    }
+    let mut child = KillOnDrop(command.spawn().expect("child client"));
+    let stdout = child.0.stdout.take().expect("child stdout");
+    // libtest prints "test ghost_child_process ... " before it on the same line.
+    let ready = BufReader::new(stdout).lines().map_while(Result::ok).any(|line| line.trim_end().ends_with("READY"));
+    assert!(ready, "the child client created its entities");
+    child
+}
+
 #[test]
 fn a_client_killed_with_sigkill_loses_its_writer_within_its_timeout_and_an_idle_one_is_kept() {
     const TIMEOUT: Duration = Duration::from_secs(2);
     let (_instance, agent, addr) = start(&["--client-timeout", "2"]);
     let key = 0x6400_0000 | (std::process::id() & 0xFFFF);
-    let mut child = KillOnDrop(
-        Command::new(std::env::current_exe().expect("test binary"))
-            .args(["--exact", "ghost_child_process", "--nocapture", "--test-threads", "1"])
-            .env(CHILD_AGENT, addr.to_string())
-            .env(CHILD_KEY, key.to_string())
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("child client"),
-    );
-    let stdout = child.0.stdout.take().expect("child stdout");
-    // libtest prints "test ghost_child_process ... " before it on the same line.
-    let ready = BufReader::new(stdout).lines().map_while(Result::ok).any(|line| line.trim_end().ends_with("READY"));
-    assert!(ready, "the child client created its writer");
+    let mut child = spawn_child(addr, key, false);
     assert!(has(&agent, key, WRITER));
     // Idle (it sends nothing of its own) but running its session: it answers the probes and stays.
     std::thread::sleep(3 * TIMEOUT);
@@ -199,4 +226,34 @@ fn a_pre_shared_key_admits_our_client_and_refuses_one_without_it() {
     assert!(has(&agent, 0x5EC0_0003, WRITER));
     assert!(!has_client(&agent, 0x5EC0_0001) && !has_client(&agent, 0x5EC0_0002));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+#[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]
+fn a_dds_peer_loses_the_reader_of_a_client_killed_with_sigkill_within_its_timeout() {
+    const TIMEOUT: Duration = Duration::from_secs(2);
+    netns::require_loopback_namespace();
+    let args = ["xrce-agent", "udp4", "-p", "0", "-m", "dds", "--dds-engine", "rustdds", "-v", "0"];
+    let instance = AgentInstance::create(args.into_iter().chain(["--client-timeout", "2"])).expect("agent starts");
+    let addr = SocketAddr::from(([127, 0, 0, 1], instance.local_addr().expect("bound").port()));
+    let peer = xrce_dds::DdsBridge::new(xrce_dds::BridgeConfig {
+        only_networks: Some(vec![std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST)]),
+        ..Default::default()
+    });
+    let participant = peer.participant(0, "").expect("DDS participant");
+    let topic = participant.topic(DDS_TOPIC, "HelloWorld", false).expect("topic");
+    let writer = participant.create_writer(&topic, &xrce_dds::EndpointQos::default()).expect("DDS writer");
+    let key = 0x6500_0000 | (std::process::id() & 0xFFFF);
+    let mut child = spawn_child(addr, key, true);
+    let matched = time_until(Duration::from_secs(20), || writer.matched_readers() == 1);
+    assert!(matched.is_some(), "the peer sees the reader");
+    std::thread::sleep(3 * TIMEOUT);
+    assert_eq!(writer.matched_readers(), 1, "an idle client answering probes keeps its reader");
+    child.0.kill().expect("SIGKILL");
+    let killed = Instant::now();
+    let _ = child.0.wait();
+    let gone = time_until(TIMEOUT + Duration::from_secs(3), || writer.matched_readers() == 0).map(|_| killed.elapsed());
+    println!("the DDS peer lost the reader {gone:?} after SIGKILL (timeout {TIMEOUT:?})");
+    let gone = gone.expect("the DDS peer loses the killed client's reader");
+    assert!(gone <= TIMEOUT + Duration::from_secs(1), "{gone:?}");
 }
