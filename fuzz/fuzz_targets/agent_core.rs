@@ -63,7 +63,7 @@ fuzz_target!(|data: &[u8]| {
         } else {
             core.handle_datagram(ep, bytes, now);
         }
-        while let Some(t) = core.poll_transmit() {
+        while let Some(t) = core.poll_transmit(now) {
             xrce_fuzz::assert_parses(&t.data, "agent");
         }
         if let Some(t) = core.poll_timeout() {

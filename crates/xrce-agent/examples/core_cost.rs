@@ -45,7 +45,7 @@ fn setup(core: &mut AgentCore<u8, Ced>, ep: u8, key: &str, now: Instant) {
         m.extend(hex(body));
         core.handle_datagram(ep, &m, now);
     }
-    while core.poll_transmit().is_some() {}
+    while core.poll_transmit(now).is_some() {}
 }
 
 /// The first unacknowledged sequence number an ACKNACK in `msg` gives, if it has one.
@@ -73,7 +73,7 @@ fn main() {
         &hex(&format!("81 80 06 00 08 01 10 00 00 11 00 16 {stream} 00 00 01 ff ff 00 00 00 00 00 00")),
         now,
     );
-    while core.poll_transmit().is_some() {}
+    while core.poll_transmit(now).is_some() {}
 
     let mut pub_seq: u16 = 6;
     let mut sub_next: u16 = 0;
@@ -101,7 +101,7 @@ fn main() {
             pub_seq = pub_seq.wrapping_add(1);
             sent += 1;
         }
-        while let Some(t) = core.poll_transmit() {
+        while let Some(t) = core.poll_transmit(now) {
             if t.to == PUBLISHER {
                 pub_acked = acknowledged(&t.data).unwrap_or(pub_acked);
             } else if let Ok((header, subs)) = message::parse(&t.data) {
@@ -131,7 +131,7 @@ fn main() {
             if let Ok(n) = message::encode_single(&mut buf, &header, &Submessage::AckNack(ack), Endianness::Little) {
                 core.handle_datagram(SUBSCRIBER, &buf[..n], now);
             }
-            while let Some(t) = core.poll_transmit() {
+            while let Some(t) = core.poll_transmit(now) {
                 if t.to == PUBLISHER {
                     pub_acked = acknowledged(&t.data).unwrap_or(pub_acked);
                 }

@@ -12,7 +12,7 @@ use std::hash::Hash;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -29,7 +29,7 @@ use crate::middleware::{DdsOptions, MiddlewareKind, UnsupportedMiddleware};
 use crate::transport::discovery::DiscoveryServer;
 use crate::transport::tcp::{ConnId, TcpServer};
 use crate::transport::udp::UdpServer;
-use crate::transport::{lock, DynMiddleware, SharedCore};
+use crate::transport::{DynMiddleware, SharedCore};
 
 /// A refused operation, with the STATUS code an XRCE client would have received.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -45,8 +45,8 @@ pub enum AgentError {
     /// The middleware is not available.
     #[error(transparent)]
     Middleware(#[from] UnsupportedMiddleware),
-    /// The transport is not implemented yet.
-    #[error("transport `{0}` is not implemented yet; available: udp4, udp6, tcp4, tcp6, serial, multiserial, pseudoterminal")]
+    /// The transport is not available on this system.
+    #[error("transport `{0}` is not available on this system; available: udp4, udp6, tcp4, tcp6 (and on Linux serial, multiserial, pseudoterminal, canfd)")]
     Transport(&'static str),
     /// `-P/--p2p`: eProsima's agent-to-agent bridging of CED topics, which this agent does not have. micro-ROS
     /// builds eProsima's agent without it (`UAGENT_P2P_PROFILE=OFF`), and with DDS (the default middleware)
@@ -96,6 +96,19 @@ fn to_cli_kind(kind: cli::MiddlewareKind) -> MiddlewareKind {
     }
 }
 
+/// An entity's text description, owned so that it can travel to the server's loop.
+enum Repr {
+    Xml(String),
+    Reference(String),
+}
+
+/// Where an entity goes: a participant in a domain, anything else under its parent.
+#[derive(Clone, Copy)]
+enum Place {
+    Domain(i16),
+    Parent(ObjectId),
+}
+
 /// An agent core with its middleware, profiles and callbacks, for endpoints of type `E`.
 pub struct Agent<E> {
     core: SharedCore<E>,
@@ -128,11 +141,11 @@ macro_rules! entity_api {
         $(
             #[doc = concat!("Creates a ", stringify!($kind), " from XML under `parent_id` (object number); `flags` are the CREATE flags (REUSE 0x02, REPLACE 0x04).")]
             pub fn $xml(&self, client_key: u32, id: u16, parent_id: u16, xml: &str, flags: u8) -> Result<StatusCode, OpError> {
-                self.create_child(ObjectKind::$kind, client_key, id, parent_id, Representation::Xml(xml), flags)
+                self.create_child(ObjectKind::$kind, client_key, id, parent_id, Repr::Xml(xml.into()), flags)
             }
             #[doc = concat!("Creates a ", stringify!($kind), " from a profile of the loaded refs under `parent_id`.")]
             pub fn $by_ref(&self, client_key: u32, id: u16, parent_id: u16, reference: &str, flags: u8) -> Result<StatusCode, OpError> {
-                self.create_child(ObjectKind::$kind, client_key, id, parent_id, Representation::Reference(reference), flags)
+                self.create_child(ObjectKind::$kind, client_key, id, parent_id, Repr::Reference(reference.into()), flags)
             }
             #[doc = concat!("Deletes a ", stringify!($kind), " and what hangs from it.")]
             pub fn $delete(&self, client_key: u32, id: u16) -> Result<StatusCode, OpError> {
@@ -142,7 +155,7 @@ macro_rules! entity_api {
     };
 }
 
-impl<E: Copy + Eq + Hash + Debug> Agent<E> {
+impl<E: Copy + Eq + Hash + Debug + Send + 'static> Agent<E> {
     /// An agent on `kind` (only CED exists yet) with the given core limits.
     pub fn new(kind: MiddlewareKind, config: CoreConfig) -> Result<Self, UnsupportedMiddleware> {
         Self::with_dds(kind, config, RosGraphMode::default(), DdsOptions::default())
@@ -160,23 +173,24 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         let middleware = kind.build_dds(profiles.clone(), ros_graph, options)?;
         let callbacks = CallbackRegistry::default();
         let wrapped: DynMiddleware = Box::new(WithCallbacks::with_registry(middleware, callbacks.clone()));
-        let core = Arc::new(Mutex::new(AgentCore::new(config, wrapped)));
+        let core = SharedCore::new(AgentCore::new(config, wrapped));
         Ok(Self { core, profiles, callbacks })
     }
 
-    /// The shared core, for transport shells.
+    /// The core's handle, for transport shells (a server's loop owns the core while it runs; these calls
+    /// then run in its next turn).
     pub fn core(&self) -> SharedCore<E> {
         self.core.clone()
     }
 
     /// Registers a ProxyClient ahead of its CREATE_CLIENT (its streams are reset then, its entities kept).
     pub fn create_client(&self, key: u32, session: u8, mtu: u16) -> Result<StatusCode, OpError> {
-        status(lock(&self.core).create_client(ClientKey::from_u32(key), session, mtu, Instant::now()))
+        status(self.core.with(move |c| c.create_client(ClientKey::from_u32(key), session, mtu, Instant::now())))
     }
 
     /// Deletes a client and its entities.
     pub fn delete_client(&self, key: u32) -> Result<StatusCode, OpError> {
-        status(lock(&self.core).delete_client(ClientKey::from_u32(key)))
+        status(self.core.with(move |c| c.delete_client(ClientKey::from_u32(key))))
     }
 
     /// Creates a participant from XML in `domain_id` (255: the agent's domain).
@@ -188,8 +202,13 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         xml: &str,
         flags: u8,
     ) -> Result<StatusCode, OpError> {
-        let variant = EntityVariant::participant(Representation::Xml(xml), domain_id);
-        self.create(client_key, ObjectId::new(id, ObjectKind::Participant), &variant, flags)
+        self.create(
+            client_key,
+            ObjectId::new(id, ObjectKind::Participant),
+            Place::Domain(domain_id),
+            Repr::Xml(xml.into()),
+            flags,
+        )
     }
 
     /// Creates a participant from a profile of the loaded refs.
@@ -201,8 +220,8 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         reference: &str,
         flags: u8,
     ) -> Result<StatusCode, OpError> {
-        let variant = EntityVariant::participant(Representation::Reference(reference), domain_id);
-        self.create(client_key, ObjectId::new(id, ObjectKind::Participant), &variant, flags)
+        let repr = Repr::Reference(reference.into());
+        self.create(client_key, ObjectId::new(id, ObjectKind::Participant), Place::Domain(domain_id), repr, flags)
     }
 
     /// Deletes a participant and everything under it.
@@ -226,32 +245,44 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
         client_key: u32,
         id: u16,
         parent_id: u16,
-        repr: Representation<'_>,
+        repr: Repr,
         flags: u8,
     ) -> Result<StatusCode, OpError> {
         let parent_kind = kind.parent().unwrap_or(ObjectKind::Participant);
-        let variant = EntityVariant::child(kind, repr, ObjectId::new(parent_id, parent_kind));
-        self.create(client_key, ObjectId::new(id, kind), &variant, flags)
+        self.create(
+            client_key,
+            ObjectId::new(id, kind),
+            Place::Parent(ObjectId::new(parent_id, parent_kind)),
+            repr,
+            flags,
+        )
     }
 
+    /// Creates an entity on the core (in the running server's turn if one runs: the strings go with it).
     fn create(
         &self,
         client_key: u32,
         id: ObjectId,
-        variant: &EntityVariant<'_>,
+        place: Place,
+        repr: Repr,
         flags: u8,
     ) -> Result<StatusCode, OpError> {
-        status(lock(&self.core).create_entity(
-            ClientKey::from_u32(client_key),
-            id,
-            variant,
-            CreationMode::from_flags(flags),
-            Instant::now(),
-        ))
+        status(self.core.with(move |c| {
+            let representation = match &repr {
+                Repr::Xml(xml) => Representation::Xml(xml),
+                Repr::Reference(reference) => Representation::Reference(reference),
+            };
+            let variant = match place {
+                Place::Domain(domain_id) => EntityVariant::participant(representation, domain_id),
+                Place::Parent(parent) => EntityVariant::child(id.kind(), representation, parent),
+            };
+            let mode = CreationMode::from_flags(flags);
+            c.create_entity(ClientKey::from_u32(client_key), id, &variant, mode, Instant::now())
+        }))
     }
 
     fn delete_entity(&self, kind: ObjectKind, client_key: u32, id: u16) -> Result<StatusCode, OpError> {
-        status(lock(&self.core).delete_entity(ClientKey::from_u32(client_key), ObjectId::new(id, kind)))
+        status(self.core.with(move |c| c.delete_entity(ClientKey::from_u32(client_key), ObjectId::new(id, kind))))
     }
 
     /// Loads a refs file (Fast DDS XML profiles) for entities created by reference; returns how many
@@ -262,7 +293,7 @@ impl<E: Copy + Eq + Hash + Debug> Agent<E> {
 
     /// Deletes every client and its entities.
     pub fn reset(&self) {
-        lock(&self.core).reset();
+        self.core.with(|c| c.reset());
     }
 
     /// Sets the log level, eProsima's 0 (off) .. 6 (trace with hex dumps).
@@ -291,6 +322,9 @@ pub enum AgentHandle {
     /// Serial servers (`serial`, `multiserial`, `pseudoterminal`): endpoints are (line, address).
     #[cfg(target_os = "linux")]
     Serial(Agent<crate::transport::serial::SerialEndpoint>),
+    /// The CAN FD server: endpoints are the clients' CAN identifiers.
+    #[cfg(target_os = "linux")]
+    Can(Agent<crate::transport::canfd::CanEndpoint>),
 }
 
 /// A running agent built from command-line arguments (eProsima's `AgentInstance`).
@@ -331,7 +365,7 @@ impl AgentInstance {
                     dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
-                lock(&agent.core).set_peer_address(|peer| Some(*peer));
+                agent.core.with(|c| c.set_peer_address(|peer| Some(*peer)));
                 let addr = bind_addr(&config.transport, port);
                 let mut server =
                     UdpServer::bind(addr, agent.core()).map_err(cannot_open(format!("UDP port {addr}")))?;
@@ -352,7 +386,7 @@ impl AgentInstance {
                     dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
-                lock(&agent.core).set_peer_address(|conn| Some(conn.peer));
+                agent.core.with(|c| c.set_peer_address(|conn| Some(conn.peer)));
                 let addr = bind_addr(&config.transport, port);
                 let mut server =
                     TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
@@ -390,6 +424,9 @@ impl AgentInstance {
                 println!("Pseudo-Serial device opened at {}", line.name());
                 start_serial(kind, &config, vec![line], &stop)?
             }
+            #[cfg(target_os = "linux")]
+            Transport::CanFd { ref device, can_id } => start_can(kind, &config, device, can_id, &stop)?,
+            #[cfg(not(target_os = "linux"))]
             ref other => return Err(AgentError::Transport(other.name())),
         };
         if config.discovery.is_some() && local_addr.is_none() {
@@ -486,6 +523,28 @@ fn start_serial(
     let stop2 = stop.clone();
     let handle = std::thread::Builder::new().name("xrce-serial".into()).spawn(move || server.run(&stop2))?;
     Ok((AgentHandle::Serial(agent), handle, None))
+}
+
+/// Starts a CAN FD server on the SocketCAN interface `device`. `can_id` (`-I`) is logged only: eProsima's agent
+/// takes it and does not use it either (it answers every client on the client's own identifier).
+#[cfg(target_os = "linux")]
+fn start_can(
+    kind: MiddlewareKind,
+    config: &Config,
+    device: &str,
+    can_id: u32,
+    stop: &Arc<AtomicBool>,
+) -> Result<Started, AgentError> {
+    use crate::transport::canfd::{core_config as can_core_config, CanServer, SocketCanBus};
+    let bus = SocketCanBus::open(device).map_err(cannot_open(format!("CAN interface {device}")))?;
+    let core = CoreConfig { max_mtu: can_core_config().max_mtu, ..core_config(config) };
+    let agent = Agent::with_dds(kind, core, to_graph_mode(config.ros_graph), dds_options(config))?;
+    load_refs(config, &agent.profiles)?;
+    let server = CanServer::new(bus, device, agent.core())?;
+    tracing::info!(device, id = format_args!("{can_id:#x}"), middleware = kind.name(), "CAN FD agent running");
+    let stop2 = stop.clone();
+    let handle = std::thread::Builder::new().name("xrce-canfd".into()).spawn(move || server.run(&stop2))?;
+    Ok((AgentHandle::Can(agent), handle, None))
 }
 
 /// The `-d` discovery responder on its port (joining 239.255.0.2), advertising `service_port`, if asked for;

@@ -178,7 +178,7 @@ pub enum Transport {
 }
 
 impl Transport {
-    /// The subcommand name, as typed on the command line (for messages such as "not implemented yet").
+    /// The subcommand name, as typed on the command line (for messages such as "not available").
     pub fn name(&self) -> &'static str {
         match self {
             Self::Udp4 { .. } => "udp4",
@@ -277,9 +277,9 @@ Arguments per transport (place them after the transport):
       -D/--devs \"<DEVICE> ...\"        multiserial: space-separated device paths in one argument
       -f/--file <FILE>                serial: device path on the first line; multiserial: one per line
       --flow-control                  serial, multiserial: RTS/CTS hardware flow control (ours) [default: off]
-  * CAN FD (canfd; not implemented yet: the agent exits with an error)
+  * CAN FD (canfd)
       -D/--dev <INTERFACE>            SocketCAN interface (required)
-      -I/--id <HEX>                   CAN identifier [default: 0x00000001]
+      -I/--id <HEX>                   CAN identifier, unused as by eProsima [default: 0x00000001]
 
 Example: xrce-agent udp4 -p 8888 -m ced -v6";
 
@@ -315,7 +315,7 @@ enum TransportCommand {
     Multiserial(MultiSerialArgs),
     /// A pseudoterminal created by the agent.
     Pseudoterminal(PseudoTerminalArgs),
-    /// CAN FD over SocketCAN (not implemented yet: the agent exits with an error)
+    /// CAN FD over SocketCAN
     Canfd(CanArgs),
 }
 
@@ -458,7 +458,8 @@ struct CanArgs {
     #[arg(short = 'D', long = "dev", value_name = "INTERFACE")]
     dev: String,
 
-    /// CAN identifier in hexadecimal, with or without 0x.
+    /// CAN identifier in hexadecimal, with or without 0x; accepted and unused, as by eProsima's agent (each
+    /// client is answered on its own identifier).
     #[arg(short = 'I', long = "id", value_name = "HEX", default_value = "0x00000001", value_parser = parse_can_id)]
     id: u32,
 

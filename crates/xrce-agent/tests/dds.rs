@@ -95,7 +95,7 @@ impl DdsHarness {
     fn drain(&mut self) {
         loop {
             let mut acks = Vec::new();
-            while let Some(t) = self.core.poll_transmit() {
+            while let Some(t) = self.core.poll_transmit(Instant::now()) {
                 let (header, subs) = decode_owned(&t.data);
                 if header.stream_id.is_reliable() {
                     let next = self.next_in.entry((t.to, header.stream_id.0)).or_insert(0);

@@ -16,7 +16,6 @@ use std::time::{Duration, Instant};
 
 use common::{create_client_msg, Client};
 use xrce_agent::agent::{Agent, AgentHandle, AgentInstance};
-use xrce_agent::transport::lock;
 use xrce_client::prelude::*;
 use xrce_proto::{ClientKey, ObjectId, ObjectKind};
 
@@ -38,11 +37,11 @@ fn start(args: &[&str]) -> (AgentInstance, Agent<SocketAddr>, SocketAddr) {
 }
 
 fn has(agent: &Agent<SocketAddr>, key: u32, id: ObjectId) -> bool {
-    lock(&agent.core()).has_object(ClientKey::from_u32(key), id)
+    agent.core().with(move |c| c.has_object(ClientKey::from_u32(key), id))
 }
 
 fn has_client(agent: &Agent<SocketAddr>, key: u32) -> bool {
-    lock(&agent.core()).has_client(ClientKey::from_u32(key))
+    agent.core().with(move |c| c.has_client(ClientKey::from_u32(key)))
 }
 
 /// Polls `pred` every 10 ms for up to `limit`; how long it took to hold, if it did.

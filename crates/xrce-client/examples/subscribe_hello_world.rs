@@ -29,6 +29,15 @@ impl Callbacks for Printer {
             self.count += 1;
         }
     }
+
+    // Reconnection is on by default: these only report it (eProsima's example has no counterpart).
+    fn on_session_lost(&mut self) {
+        println!("Agent lost, reconnecting");
+    }
+
+    fn on_session_restored(&mut self, recreated: bool) {
+        println!("Agent back ({})", if recreated { "session and entities created again" } else { "session kept" });
+    }
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -4,7 +4,7 @@
 //!   fixed by const parameters). Bytes and time in, bytes out, callbacks for what the agent says.
 //! * [`Session`]: the same over a [`Transport`] with the `run_session_*` family of the C API.
 //! * [`transport`]: the transport trait, custom transports (framed or not) and, with `std`, UDP, TCP and
-//!   agent discovery.
+//!   agent discovery, with `serial` (Unix) serial lines and with `can` (Linux) CAN FD.
 //! * [`WriteAccess`]: the `uxr_buffer_*` entity and data functions, on both.
 //!
 //! `docs/client-api.md` maps every `uxr_*` function and constant to its counterpart here.
@@ -24,7 +24,10 @@ pub use object::{object_id, DeliveryControl, Durability, History, QoS, Reliabili
 pub use session::ping::{ping_agent, ping_agent_attempts};
 #[cfg(feature = "std")]
 pub use session::StdClock;
-pub use session::{Callbacks, Clock, Outputs, Prepared, ServiceNames, Session, SessionCore, SessionState, TimeSample};
+pub use session::{
+    Callbacks, Clock, Outputs, Prepared, Reconnect, ServiceNames, Session, SessionCore, SessionEvent, SessionState,
+    TimeSample,
+};
 pub use transport::{CustomIo, CustomTransport, Transport, TransportError};
 pub use xrce_proto::{ObjectId, ObjectKind, SampleIdentity, StreamId, StreamKind};
 
@@ -176,15 +179,19 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 /// Everything an application needs in scope.
 pub mod prelude {
     pub use crate::session::ping::{ping_agent, ping_agent_attempts};
+    #[cfg(all(feature = "can", target_os = "linux"))]
+    pub use crate::transport::CanTransport;
     #[cfg(feature = "std")]
     pub use crate::transport::{discovery, IpProtocol, TcpTransport, UdpTransport};
     pub use crate::transport::{CustomIo, CustomTransport, Transport};
+    #[cfg(all(feature = "serial", unix))]
+    pub use crate::transport::{SerialSettings, SerialTransport};
     #[cfg(feature = "std")]
     pub use crate::StdClock;
     pub use crate::{
         object_id, stream_id, stream_id_from_raw, Callbacks, DeliveryControl, Durability, Error, History, ObjectId,
-        ObjectKind, Outputs, QoS, Reliability, SampleIdentity, ServiceNames, Session, SessionCore, StreamDirection,
-        StreamId, StreamKind, WriteAccess, WriteAccessExt, REPLACE, REUSE, STATUS_NONE, STATUS_OK, STATUS_OK_MATCHED,
-        TIMEOUT_INF,
+        ObjectKind, Outputs, QoS, Reconnect, Reliability, SampleIdentity, ServiceNames, Session, SessionCore,
+        SessionEvent, StreamDirection, StreamId, StreamKind, WriteAccess, WriteAccessExt, REPLACE, REUSE, STATUS_NONE,
+        STATUS_OK, STATUS_OK_MATCHED, TIMEOUT_INF,
     };
 }

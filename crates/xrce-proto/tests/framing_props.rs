@@ -196,6 +196,24 @@ proptest! {
     }
 
     #[test]
+    fn can_frame_round_trip_and_any_received_frame(
+        id in 0u32..=can::EFF_MASK,
+        msg in prop::collection::vec(any::<u8>(), 0..=63),
+        can_id in any::<u32>(),
+        bytes in prop::collection::vec(any::<u8>(), 0..80),
+    ) {
+        let frame = can::Frame::with_message(id, &msg).unwrap();
+        prop_assert_eq!((frame.id(), frame.message()), (Some(id), Ok(&msg[..])));
+        prop_assert_eq!(usize::from(frame.len), msg.len() + 1);
+        // Anything off the bus: at most 64 bytes kept, a message of at most 63 or an error, no panic.
+        let received = can::Frame::from_parts(can_id, &bytes);
+        prop_assert_eq!(received.bytes(), &bytes[..bytes.len().min(64)]);
+        if let Ok(m) = received.message() {
+            prop_assert!(m.len() <= can::MAX_MESSAGE_LEN);
+        }
+    }
+
+    #[test]
     fn can_decode_never_overreads(data in prop::collection::vec(any::<u8>(), 0..80)) {
         if let Ok(msg) = can::decode(&data) {
             prop_assert_eq!(msg.len(), usize::from(data[0]));

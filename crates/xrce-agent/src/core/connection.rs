@@ -103,8 +103,6 @@ pub struct Connection<E> {
     pub(super) timer_queued: Option<Instant>,
     /// A DELETE of the client itself: the endpoint removes it and answers.
     pub(super) delete_request: Option<(BaseObjectRequest, MessageHeader)>,
-    /// Set while its read tasks are served: reliable DATA waits to be packed several per message.
-    pub(super) pumping: bool,
     /// In the endpoint's lists of clients owing ACKNACKs, with read tasks, with held input: kept here so a
     /// turn checks membership without scanning the lists (thousands of subscribers read at once).
     pub(super) listed: Listed,
@@ -152,7 +150,6 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             heartbeat_due: None,
             timer_queued: None,
             delete_request: None,
-            pumping: false,
             listed: Listed::default(),
             watch: super::liveness::Watch::default(),
         }
@@ -433,17 +430,36 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                     ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
                     return;
                 }
-                if !self.pumping {
-                    self.flush_stream(ctx, stream, now);
-                }
+                // Built into messages when the endpoint asks for this client's next one
+                // ([`Self::next_stream_message`]), packed with whatever else waits by then.
                 self.arm_heartbeat(now, ctx.config.heartbeat_period);
             }
         }
     }
 
-    /// Sends what is queued on a reliable output stream, as far as its window allows (several submessages
+    /// Whether it has stream messages to send: built ones (best effort, retransmissions) or reliable
+    /// submessages its windows let it build.
+    pub(crate) fn has_stream_work(&self) -> bool {
+        self.outbox.has(Class::Stream) || self.streams.rel_out.values().any(ReliableOut::has_buildable)
+    }
+
+    /// Its next stream message, built now: when no built one waits, every reliable stream with room in its
+    /// window builds its messages from what waits (deferred retransmissions due first, then new messages,
+    /// several submessages each when the client reads packed messages).
+    pub(crate) fn next_stream_message<M>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) -> Option<Vec<u8>> {
+        if !self.outbox.has(Class::Stream) {
+            let ready: Vec<u8> =
+                self.streams.rel_out.iter().filter(|(_, out)| out.has_buildable()).map(|(sid, _)| *sid).collect();
+            for sid in ready {
+                self.flush_stream(ctx, StreamId(sid), now);
+            }
+        }
+        self.outbox.pop(Class::Stream)
+    }
+
+    /// Builds what is queued on a reliable output stream, as far as its window allows (several submessages
     /// per message when the client reads packed messages).
-    pub(crate) fn flush_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: StreamId, now: Instant) {
+    fn flush_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: StreamId, now: Instant) {
         let header = self.header(stream, 0);
         let mtu = self.pack_mtu();
         let period = ctx.config.heartbeat_period;
@@ -456,23 +472,21 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
     }
 
-    /// An ACKNACK for one of its reliable output streams: retransmits what it asks for, sends what the
-    /// window now allows; pins its readers again once it acknowledges something after a stall.
+    /// An ACKNACK for one of its reliable output streams: retransmits what it asks for (new messages the
+    /// window now allows are built when asked); pins its readers again once it acknowledges something after
+    /// a stall.
     pub(crate) fn handle_acknack<M: Middleware>(
         &mut self,
         ctx: &mut Ctx<'_, E, M>,
         ack: &xrce_proto::submessage::AckNack,
         now: Instant,
     ) {
-        let header = self.header(StreamId(ack.stream_id), 0);
-        let mtu = self.pack_mtu();
         let period = ctx.config.heartbeat_period;
         let Some(out) = self.streams.rel_out.get_mut(&ack.stream_id) else { return };
         let before = out.first_unacked();
         let mut built: Vec<Vec<u8>> = Vec::new();
         out.on_acknack(ack, now, period, ctx.pool, |m| built.push(m));
         let progressed = out.first_unacked() != before;
-        out.flush(&header, mtu, Some(now), ctx.pool, |m| built.push(m));
         let _ = out.arm_probe(now, period);
         for m in built {
             self.push(ctx, Class::Stream, m);

@@ -1,7 +1,7 @@
 //! A connection's read tasks (spec §6.8, §10.3 READ_DATA): samples taken from the middleware through its
 //! visitor within the task's delivery control. On a best-effort stream (or stream 0) the visitor copies the
 //! sample once, straight into the outgoing message; on a reliable stream into a DATA submessage the stream
-//! queues until its window lets it build the message.
+//! queues until the endpoint asks for the client's next message and the window lets it build one.
 
 use std::fmt::Debug;
 use std::hash::Hash;
@@ -34,33 +34,15 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
     }
 
-    /// Delivers the samples one read task may take now. On a reliable stream samples are queued and packed
-    /// several per message (a message's worth at a time) while the window has room.
+    /// Delivers the samples one read task may take now. On a reliable stream samples are queued while what
+    /// waits fits the stream's window; the messages are built, several samples each when the client reads
+    /// packed messages, when the endpoint asks for them.
     fn pump_reader<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, reader: ObjectId, now: Instant) {
         let reliable = self.reads.get(&reader).map(|t| t.stream).filter(|s| s.is_reliable());
-        self.pumping = true;
-        self.pump_reader_inner(ctx, reader, reliable, now);
-        self.pumping = false;
-        if let Some(stream) = reliable {
-            self.flush_stream(ctx, stream, now);
-        }
-    }
-
-    fn pump_reader_inner<M: Middleware>(
-        &mut self,
-        ctx: &mut Ctx<'_, E, M>,
-        reader: ObjectId,
-        reliable: Option<xrce_proto::StreamId>,
-        now: Instant,
-    ) {
         let entity = EntityRef::new(self.key, reader);
         for _ in 0..MAX_SAMPLES_PER_PUMP {
             if let Some(stream) = reliable {
                 let pack_mtu = self.pack_mtu();
-                let state = self.streams.rel_out.get(&stream.0);
-                if state.is_some_and(|s| s.pending_bytes() >= pack_mtu && s.has_window_room()) {
-                    self.flush_stream(ctx, stream, now);
-                }
                 if self.streams.rel_out.get(&stream.0).is_some_and(|s| !s.can_take(pack_mtu)) {
                     return;
                 }

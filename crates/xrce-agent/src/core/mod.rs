@@ -297,8 +297,9 @@ where
 
     /// The next message to send, in this order: ACKNACKs owed (built now, with their stream's latest state),
     /// replies outside a session, clients' control messages, clients' stream messages, one client per turn
-    /// ([`outbox`]).
-    pub fn poll_transmit(&mut self) -> Option<Transmit<E>> {
+    /// ([`outbox`]). A client's reliable messages are built when its turn comes (`now` stamps them for
+    /// retransmission), packing every sample that waits by then.
+    pub fn poll_transmit(&mut self, now: Instant) -> Option<Transmit<E>> {
         self.end_batch();
         if let Some(t) = self.poll_acknack() {
             return Some(t);
@@ -306,12 +307,37 @@ where
         if let Some(t) = self.stateless.pop_front() {
             return Some(t);
         }
-        for class in [outbox::Class::Control, outbox::Class::Stream] {
-            while let Some((to, data)) = self.turns.next(class, &mut self.clients, client_outbox) {
-                match to {
-                    Some(to) => return Some(Transmit { to, data }),
-                    None => self.pool.put(data),
-                }
+        while let Some((to, data)) = self.turns.next(outbox::Class::Control, &mut self.clients, client_outbox) {
+            match to {
+                Some(to) => return Some(Transmit { to, data }),
+                None => self.pool.put(data),
+            }
+        }
+        while let Some(key) = self.turns.pop(outbox::Class::Stream) {
+            let Some(client) = self.clients.get_mut(&key) else { continue };
+            let mut ctx = Ctx {
+                middleware: &mut self.middleware,
+                config: &self.config,
+                stats: &mut self.stats,
+                pool: &mut self.pool,
+                drop_log: &mut self.drop_log,
+                wall_anchor: self.wall_anchor,
+                writes: 0,
+                retry: false,
+            };
+            let msg = client.next_stream_message(&mut ctx, now);
+            let to = client.endpoint;
+            if client.has_stream_work() {
+                self.turns.requeue(outbox::Class::Stream, key);
+            } else {
+                client.outbox.set_listed(outbox::Class::Stream, false);
+            }
+            // Building armed its tail-loss probe.
+            Self::queue_timer(&mut self.timers, key, client);
+            match (msg, to) {
+                (Some(data), Some(to)) => return Some(Transmit { to, data }),
+                (Some(data), None) => self.pool.put(data),
+                (None, _) => {}
             }
         }
         None
@@ -413,10 +439,11 @@ where
     /// at the end of the batch.
     fn after_turn(&mut self, key: ClientKey, retry: bool) {
         let Some(client) = self.clients.get_mut(&key) else { return };
-        for class in [outbox::Class::Control, outbox::Class::Stream] {
-            if client.outbox.has(class) {
-                self.turns.enlist(key, &mut client.outbox, class);
-            }
+        if client.outbox.has(outbox::Class::Control) {
+            self.turns.enlist(key, &mut client.outbox, outbox::Class::Control);
+        }
+        if client.has_stream_work() {
+            self.turns.enlist(key, &mut client.outbox, outbox::Class::Stream);
         }
         if !client.acks_due.is_empty() && !client.listed.acking {
             client.listed.acking = true;

@@ -112,7 +112,7 @@ impl Outbox {
     }
 
     /// Sets whether the client is in the endpoint's turn list of `class`; returns whether it was.
-    fn set_listed(&mut self, class: Class, listed: bool) -> bool {
+    pub(super) fn set_listed(&mut self, class: Class, listed: bool) -> bool {
         let slot = match class {
             Class::Control => &mut self.listed_control,
             Class::Stream => &mut self.listed_stream,
@@ -167,6 +167,17 @@ impl TurnLists {
             return Some((address, msg));
         }
         None
+    }
+
+    /// The client whose turn it is for `class`, taken off the list (the caller puts it back with
+    /// [`Self::requeue`] while it has more, or unlists it).
+    pub fn pop(&mut self, class: Class) -> Option<ClientKey> {
+        self.list(class).pop_front()
+    }
+
+    /// Puts `key` back at the end of the list of `class` (it keeps its listed flag).
+    pub fn requeue(&mut self, class: Class, key: ClientKey) {
+        self.list(class).push_back(key);
     }
 
     /// Forgets every turn.

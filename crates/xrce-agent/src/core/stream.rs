@@ -304,15 +304,22 @@ impl ReliableOut {
         self.in_flight.len() < usize::from(self.window)
     }
 
-    /// Bytes queued behind the window.
-    pub fn pending_bytes(&self) -> usize {
-        self.pending_bytes
+    /// Whether another sample may be queued: what waits still fits the window's free messages (one
+    /// message per body without packing, `mtu` bytes each with it). Messages are built only when the
+    /// endpoint asks for the client's next one ([`Self::flush`] then packs what waits), so this is what
+    /// bounds a read task's samples per turn.
+    pub fn can_take(&self, mtu: usize) -> bool {
+        let free = usize::from(self.window).saturating_sub(self.in_flight.len());
+        if mtu == 0 {
+            self.pending.len() < free
+        } else {
+            self.pending_bytes < free.saturating_mul(mtu)
+        }
     }
 
-    /// Whether another sample may be queued: the window has room and less than a message of `mtu` bytes
-    /// waits (what waits is packed into one message by [`Self::flush`]).
-    pub fn can_take(&self, mtu: usize) -> bool {
-        self.has_window_room() && (self.pending.is_empty() || self.pending_bytes < mtu)
+    /// Whether [`Self::flush`] would build a new message now.
+    pub fn has_buildable(&self) -> bool {
+        !self.pending.is_empty() && self.has_window_room()
     }
 
     /// Frees the buffers of an idle stream (nothing in flight or queued), so idle sessions cost little.

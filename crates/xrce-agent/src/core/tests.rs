@@ -34,7 +34,7 @@ pub(crate) fn create_client(key: u32) -> Vec<u8> {
 /// Every ACKNACK among the queued transmits: (first, bitmap, stream).
 pub(crate) fn acknacks(core: &mut TestCore) -> Vec<(u16, u16, u8)> {
     let mut out = Vec::new();
-    while let Some(t) = core.poll_transmit() {
+    while let Some(t) = core.poll_transmit(Instant::now()) {
         let (_, subs) = message::parse(&t.data).expect("header");
         for raw in subs.flatten() {
             if let Ok(Submessage::AckNack(a)) = raw.decode() {
@@ -50,7 +50,7 @@ fn heartbeat_before_any_message_of_a_reliable_stream_is_acknacked() {
     let mut core = core_with(CoreConfig::default());
     let now = Instant::now();
     core.handle_datagram(7, &create_client(0xAABB_CCDD), now);
-    while core.poll_transmit().is_some() {}
+    while core.poll_transmit(Instant::now()).is_some() {}
     // The client's first reliable message (seq 0) was lost; its HEARTBEAT announces 0..=0.
     let header = MessageHeader::new(0x81, StreamId::NONE, 0, ClientKey::INVALID);
     let hb = Heartbeat { first_unacked_seq_nr: 0, last_unacked_seq_nr: 0, stream_id: 0x80 };
@@ -69,7 +69,7 @@ fn acknacks_can_be_taken_before_the_batch_is_delivered() {
     let mut core = core_with(CoreConfig::default());
     let now = Instant::now();
     core.handle_datagram(7, &create_client(0xAABB_CCDD), now);
-    while core.poll_transmit().is_some() {}
+    while core.poll_transmit(Instant::now()).is_some() {}
     // A reliable WRITE_DATA to an unknown writer: it is acknowledged all the same (the stream advanced).
     let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
     let request = BaseObjectRequest { request_id: RequestId(1), object_id: ObjectId::new(9, ObjectKind::DataWriter) };

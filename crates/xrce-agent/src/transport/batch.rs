@@ -412,4 +412,31 @@ mod tests {
         }
         assert_eq!(batch.uses_gso(), cfg!(target_os = "linux"), "a too large segment does not turn GSO off");
     }
+    /// What the UDP shell relies on to skip the read that would find its queue empty: on the agent's
+    /// unconnected socket, the ICMP "port unreachable" its sends to a closed peer earn set no pending error,
+    /// so a batch comes back partial only when the queue is empty, never cut short with datagrams behind.
+    #[test]
+    fn a_closed_peer_does_not_cut_a_batch_short() {
+        let (sender, agent, agent_addr) = loopback_pair();
+        let gone = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let gone_addr = gone.local_addr().unwrap();
+        drop(gone);
+        let mut tx = SendBatch::new();
+        let mut rx = RecvBatch::new(64);
+        for round in 0..3u8 {
+            tx.send(&agent, &[Transmit { to: gone_addr, data: vec![round; 8] }]);
+            std::thread::sleep(Duration::from_millis(20));
+            for i in 0..5u8 {
+                sender.send_to(&[round, i], agent_addr).unwrap();
+            }
+            std::thread::sleep(Duration::from_millis(20));
+            let n = rx.recv(&agent).unwrap();
+            assert_eq!(n, if cfg!(target_os = "linux") { 5 } else { 1 }, "round {round}: the whole queue at once");
+            assert_eq!(rx.get(0).map(|(_, b)| b.to_vec()), Some(vec![round, 0]));
+            let rest = if cfg!(target_os = "linux") { 0 } else { 4 };
+            for _ in 0..rest {
+                rx.recv(&agent).unwrap();
+            }
+        }
+    }
 }

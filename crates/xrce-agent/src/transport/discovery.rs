@@ -221,7 +221,7 @@ mod tests {
             Box::new(Ced::new(Arc::new(FallbackProfiles))) as super::super::DynMiddleware,
         );
         let server =
-            super::super::udp::UdpServer::bind("127.0.0.1:0".parse().unwrap(), Arc::new(std::sync::Mutex::new(core)))
+            super::super::udp::UdpServer::bind("127.0.0.1:0".parse().unwrap(), crate::transport::SharedCore::new(core))
                 .unwrap();
         let service = server.local_addr().unwrap();
         let discovery =

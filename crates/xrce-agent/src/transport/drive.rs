@@ -4,14 +4,16 @@
 //! notes their readiness, reads without blocking and sends or queues what the core produced. An
 //! [`EventLoop`] waits for readiness, the core's next timer or the middleware's waker (a `mio::Waker` behind
 //! a [`WakeFlag`]), answers the `-d` discovery responder if the server has one, then [`Driver::drive`] runs one
-//! turn under one lock: give back the buffers sent last turn, hand the input to the core, send the ACKNACKs
-//! owed at once (UDP), poll the middleware if it woke, run due timers, take every message to send. The sends
-//! themselves happen after the lock is released.
+//! turn: give back the buffers sent last turn, hand the input to the core, send the ACKNACKs owed at once
+//! (UDP), run the library API's jobs, poll the middleware if it woke, run due timers, take every message to
+//! send, send them. The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
 
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::io;
+use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -22,8 +24,9 @@ use mio::unix::SourceFd;
 use mio::{Events, Interest, Poll, Registry, Token};
 
 use super::discovery::DiscoveryServer;
-use super::{hexdump, lock, DynMiddleware, SharedCore, WakeFlag, MAX_BLOCK};
-use crate::core::{AgentCore, Transmit};
+use super::home::{Core, Job};
+use super::{hexdump, SharedCore, WakeFlag, MAX_BLOCK};
+use crate::core::Transmit;
 
 /// The middleware waker's token in every shell's poll; shells number their sources from 1.
 pub const WAKER: Token = Token(0);
@@ -36,6 +39,10 @@ pub trait Io<E> {
 
     /// Notes the readiness of one of the shell's sources (never the waker's).
     fn ready(&mut self, event: &Event);
+
+    /// The loop woke without any event (its timer): a shell that skips reads it believes would find
+    /// nothing reads anyway, so a wrong belief costs at most one timer period.
+    fn idle(&mut self) {}
 
     /// Called before the loop blocks: takes, without blocking, input likely to be waiting already (UDP: more
     /// datagrams after a batch); true when it got some, and the next turn then runs at once. This saves a
@@ -54,7 +61,7 @@ pub trait Io<E> {
 
 /// The core as [`Io::receive`] sees it.
 pub struct Inbox<'a, E> {
-    core: &'a mut AgentCore<E, DynMiddleware>,
+    core: &'a mut Core<E>,
     now: Instant,
     hex: bool,
 }
@@ -103,42 +110,47 @@ impl<E: Copy + Eq + Hash + Debug> Default for Driver<E> {
 }
 
 impl<E: Copy + Eq + Hash + Debug> Driver<E> {
-    /// One turn (see the module documentation); `woken`: the middleware's waker fired since the last one.
-    /// Returns how long the loop may block before the next turn.
-    pub fn drive<I: Io<E>>(&mut self, core: &SharedCore<E>, woken: bool, io: &mut I) -> io::Result<Duration> {
+    /// One turn (see the module documentation); `woken`: the middleware's waker fired since the last one;
+    /// `jobs`: the library API's calls waiting for the core. Returns how long the loop may block before the
+    /// next turn.
+    pub fn drive<I: Io<E>>(
+        &mut self,
+        c: &mut Core<E>,
+        jobs: &Receiver<Job<E>>,
+        woken: bool,
+        io: &mut I,
+    ) -> io::Result<Duration> {
         let hex = tracing::enabled!(target: "xrce_agent::hexdump", tracing::Level::TRACE);
-        let wait = {
-            let mut c = lock(core);
-            let now = Instant::now();
-            self.give_back(&mut c);
-            io.receive(&mut Inbox { core: &mut c, now, hex })?;
-            if I::EARLY_ACKNACKS {
-                while let Some(t) = c.poll_acknack() {
-                    self.early.push(t);
-                }
-                if !self.early.is_empty() {
-                    dump_sent(hex, &self.early);
-                    io.send(&mut self.early, &mut self.spent);
-                    self.give_back(&mut c);
-                }
+        let now = Instant::now();
+        self.give_back(c);
+        io.receive(&mut Inbox { core: c, now, hex })?;
+        if I::EARLY_ACKNACKS {
+            while let Some(t) = c.poll_acknack() {
+                self.early.push(t);
             }
-            if woken {
-                c.poll_middleware(now);
+            if !self.early.is_empty() {
+                dump_sent(hex, &self.early);
+                io.send(&mut self.early, &mut self.spent);
+                self.give_back(c);
             }
-            if c.poll_timeout().is_some_and(|t| t <= now) {
-                c.handle_timeout(now);
-            }
-            while let Some(t) = c.poll_transmit() {
-                self.out.push(t);
-            }
-            block_for(c.poll_timeout(), now)
-        };
+        }
+        run_jobs(c, jobs);
+        if woken {
+            c.poll_middleware(now);
+        }
+        if c.poll_timeout().is_some_and(|t| t <= now) {
+            c.handle_timeout(now);
+        }
+        while let Some(t) = c.poll_transmit(now) {
+            self.out.push(t);
+        }
+        let wait = block_for(c.poll_timeout(), now);
         dump_sent(hex, &self.out);
         io.send(&mut self.out, &mut self.spent);
         Ok(wait)
     }
 
-    fn give_back(&mut self, core: &mut AgentCore<E, DynMiddleware>) {
+    fn give_back(&mut self, core: &mut Core<E>) {
         for data in self.spent.buffers.drain(..) {
             core.recycle(data);
         }
@@ -148,6 +160,16 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         // Whatever a shell left unsent.
         for t in self.out.drain(..).chain(self.early.drain(..)) {
             core.recycle(t.data);
+        }
+    }
+}
+
+/// Runs the library API's calls. One that panics is logged and the server goes on (its caller gets the
+/// panic, see [`SharedCore::with`]), as a panicking call on a locked core did.
+fn run_jobs<E>(core: &mut Core<E>, jobs: &Receiver<Job<E>>) {
+    while let Ok(job) = jobs.try_recv() {
+        if std::panic::catch_unwind(AssertUnwindSafe(|| job(core))).is_err() {
+            tracing::error!("an agent API call panicked inside the server's turn; the server goes on");
         }
     }
 }
@@ -167,39 +189,45 @@ pub fn block_for(next: Option<Instant>, now: Instant) -> Duration {
 
 /// Prepares `core` for a loop polled by `poll`: anchors its TIMESTAMP_REPLY clock to the system clock and
 /// gives its middleware a waker that raises the returned flag and wakes the poll ([`WAKER`]). Many wakes
-/// between two turns cost one system call and one middleware poll.
-fn attach<E: Copy + Eq + Hash + Debug>(core: &SharedCore<E>, poll: &Poll) -> io::Result<Arc<WakeFlag>> {
-    let waker = mio::Waker::new(poll.registry(), WAKER)?;
+/// between two turns cost one system call and one middleware poll. The poll's waker is returned too, for
+/// the library API's jobs.
+fn attach<E: Copy + Eq + Hash + Debug + Send + 'static>(
+    core: &SharedCore<E>,
+    poll: &Poll,
+) -> io::Result<(Arc<WakeFlag>, Arc<mio::Waker>)> {
+    let waker = Arc::new(mio::Waker::new(poll.registry(), WAKER)?);
     let flag = Arc::new(WakeFlag::default());
-    let raised = flag.clone();
-    let mut c = lock(core);
+    let (raised, wakes) = (flag.clone(), waker.clone());
     let since_epoch = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
-    c.set_wall_clock(Instant::now(), since_epoch);
-    c.middleware_mut().set_waker(Arc::new(move || {
-        if raised.raise() {
-            // A failed wake-up only delays the poll to the loop's next turn (at most MAX_BLOCK).
-            let _ = waker.wake();
-        }
-    }));
-    Ok(flag)
+    core.with(move |c| {
+        c.set_wall_clock(Instant::now(), since_epoch);
+        c.middleware_mut().set_waker(Arc::new(move || {
+            if raised.raise() {
+                // A failed wake-up only delays the poll to the loop's next turn (at most MAX_BLOCK).
+                let _ = wakes.wake();
+            }
+        }));
+    });
+    Ok((flag, waker))
 }
 
 /// What a server keeps for its loop: the core, the middleware's wake flag, the poll (made with the server, so
-/// the middleware's waker exists before the loop runs) and the `-d` responder the loop answers.
+/// the middleware's waker exists before the loop runs) and its waker, and the `-d` responder the loop answers.
 #[derive(Debug)]
 pub struct EventLoop<E> {
     core: SharedCore<E>,
     wake: Arc<WakeFlag>,
+    waker: Arc<mio::Waker>,
     poll: Mutex<Option<Poll>>,
     discovery: Option<DiscoveryServer>,
 }
 
-impl<E: Copy + Eq + Hash + Debug> EventLoop<E> {
+impl<E: Copy + Eq + Hash + Debug + Send + 'static> EventLoop<E> {
     /// A loop for `core`; gives its middleware a waker that wakes this loop.
     pub fn new(core: SharedCore<E>) -> io::Result<Self> {
         let poll = Poll::new()?;
-        let wake = attach(&core, &poll)?;
-        Ok(Self { core, wake, poll: Mutex::new(Some(poll)), discovery: None })
+        let (wake, waker) = attach(&core, &poll)?;
+        Ok(Self { core, wake, waker, poll: Mutex::new(Some(poll)), discovery: None })
     }
 
     /// Answers discovery requests from this loop.
@@ -222,8 +250,28 @@ impl<E: Copy + Eq + Hash + Debug> EventLoop<E> {
             .take()
             .ok_or_else(|| io::Error::other(format!("{server} is already running")))?;
         let mut io = setup(poll.registry())?;
-        serve(&self.core, &mut poll, &self.wake, &mut io, self.discovery.as_ref(), stop)?;
+        let waker = self.waker.clone();
+        let (core, jobs) = self.core.lend(Arc::new(move || drop(waker.wake()))).map_err(io::Error::other)?;
+        let mut lent = Lent { home: &self.core, core: Some(core), jobs: Some(jobs) };
+        if let Lent { core: Some(core), jobs: Some(jobs), .. } = &mut lent {
+            serve(core, jobs, &mut poll, &self.wake, &mut io, self.discovery.as_ref(), stop)?;
+        }
         Ok(io)
+    }
+}
+
+/// The core while a loop owns it; given back to its handle when the loop ends, however it ends.
+struct Lent<'a, E: Send + 'static> {
+    home: &'a SharedCore<E>,
+    core: Option<Box<Core<E>>>,
+    jobs: Option<Receiver<Job<E>>>,
+}
+
+impl<E: Send + 'static> Drop for Lent<'_, E> {
+    fn drop(&mut self) {
+        if let (Some(core), Some(jobs)) = (self.core.take(), self.jobs.take()) {
+            self.home.park(core, jobs);
+        }
     }
 }
 
@@ -234,7 +282,8 @@ const DISCOVERY: Token = Token(usize::MAX);
 /// next timer or the waker, then drives a turn. A `-d` discovery responder, if any, is answered from the
 /// same loop.
 fn serve<E, I>(
-    core: &SharedCore<E>,
+    core: &mut Core<E>,
+    jobs: &Receiver<Job<E>>,
     poll: &mut Poll,
     wake: &WakeFlag,
     io: &mut I,
@@ -260,6 +309,9 @@ where
                     return Err(e);
                 }
             }
+            if events.is_empty() {
+                io.idle();
+            }
             for event in &events {
                 match event.token() {
                     WAKER => {}
@@ -268,7 +320,7 @@ where
                 }
             }
         }
-        wait = driver.drive(core, wake.take(), io)?;
+        wait = driver.drive(core, jobs, wake.take(), io)?;
     }
     Ok(())
 }

@@ -1,36 +1,32 @@
-//! Transport shells: they own the sockets and the clock, and move bytes between them and a shared
-//! [`AgentCore`]. The core sits behind a mutex so the library API
-//! ([`crate::agent::Agent`]) can act on it while a server runs. Every server is one thread running one
-//! `mio` event loop ([`drive::EventLoop`]); each lock is held for one turn of it ([`drive::Driver::drive`]).
+//! Transport shells: they own the sockets and the clock, and move bytes between them and an
+//! [`AgentCore`](crate::core::AgentCore). Every server is one thread running one `mio` event loop
+//! ([`drive::EventLoop`]), which owns the core while it runs; the library API ([`crate::agent::Agent`])
+//! reaches it through its [`SharedCore`] handle ([`home`]).
 
 pub mod batch;
+#[cfg(target_os = "linux")]
+pub mod canfd;
+pub mod custom;
 pub mod discovery;
 pub mod drive;
+pub mod home;
 #[cfg(target_os = "linux")]
 pub mod serial;
 pub mod tcp;
 pub mod udp;
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use crate::core::AgentCore;
 use crate::middleware::Middleware;
+
+pub use home::{CoreInUse, SharedCore};
 
 /// The middleware type the shells run: any middleware, boxed.
 pub type DynMiddleware = Box<dyn Middleware + Send>;
 
-/// A core shared between a transport shell and the library API.
-pub type SharedCore<E> = Arc<Mutex<AgentCore<E, DynMiddleware>>>;
-
 /// Longest a shell blocks without checking its stop flag.
 pub const MAX_BLOCK: Duration = Duration::from_millis(200);
-
-/// Locks the core, recovering from a poisoned lock (a panic elsewhere must not stop the agent).
-pub fn lock<E>(core: &SharedCore<E>) -> MutexGuard<'_, AgentCore<E, DynMiddleware>> {
-    core.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
 
 /// Logs a message in hex at trace level (verbosity 6), as eProsima's agent does.
 pub fn hexdump(direction: &str, peer: &dyn std::fmt::Debug, bytes: &[u8]) {
@@ -63,11 +59,13 @@ impl WakeFlag {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::core::AgentCore;
     use crate::middleware::ced::Ced;
     use crate::middleware::describe::FallbackProfiles;
     use crate::middleware::{Creation, EntityRef, MiddlewareError, SampleVisitor, Waker, WriteOutcome};
+    use std::sync::{Arc, Mutex};
     use std::time::Instant;
-    use xrce_proto::{RequestId, SampleIdentity};
+    use xrce_proto::{ClientKey, RequestId, SampleIdentity};
 
     /// CED that hands its waker to the test.
     struct Spy {
@@ -117,17 +115,20 @@ mod tests {
         }
     }
 
-    fn spy_core<E: Copy + Eq + std::hash::Hash + std::fmt::Debug>() -> (SharedCore<E>, Arc<Mutex<Option<Waker>>>) {
+    trait Endpoint: Copy + Eq + std::hash::Hash + std::fmt::Debug + Send + 'static {}
+    impl<E: Copy + Eq + std::hash::Hash + std::fmt::Debug + Send + 'static> Endpoint for E {}
+
+    fn spy_core<E: Endpoint>() -> (SharedCore<E>, Arc<Mutex<Option<Waker>>>) {
         let waker = Arc::new(Mutex::new(None));
         let spy = Spy { inner: Ced::new(Arc::new(FallbackProfiles)), waker: waker.clone() };
         let core = AgentCore::new(crate::core::CoreConfig::default(), Box::new(spy) as DynMiddleware);
-        (Arc::new(Mutex::new(core)), waker)
+        (SharedCore::new(core), waker)
     }
 
-    fn wait_for_polls<E: Copy + Eq + std::hash::Hash + std::fmt::Debug>(core: &SharedCore<E>, n: u64) -> bool {
+    fn wait_for_polls<E: Endpoint>(core: &SharedCore<E>, n: u64) -> bool {
         let deadline = Instant::now() + Duration::from_secs(5);
         while Instant::now() < deadline {
-            if lock(core).stats().middleware_polls >= n {
+            if core.with(|c| c.stats().middleware_polls) >= n {
                 return true;
             }
             std::thread::sleep(Duration::from_millis(2));
@@ -157,14 +158,9 @@ mod tests {
 
     /// Fires `waker` `times` times; each must make the running server poll the middleware within `within`
     /// (far below the loop's longest block: a timeout turn would have come up to MAX_BLOCK later).
-    fn assert_wakes<E: Copy + Eq + std::hash::Hash + std::fmt::Debug>(
-        core: &SharedCore<E>,
-        waker: &Waker,
-        times: u64,
-        within: Duration,
-    ) {
+    fn assert_wakes<E: Endpoint>(core: &SharedCore<E>, waker: &Waker, times: u64, within: Duration) {
         std::thread::sleep(Duration::from_millis(50));
-        let before = lock(core).stats().middleware_polls;
+        let before = core.with(|c| c.stats().middleware_polls);
         for n in 1..=times {
             let started = Instant::now();
             waker();
@@ -187,7 +183,7 @@ mod tests {
         let s2 = stop.clone();
         let t = std::thread::spawn(move || server.run(&s2));
         assert_wakes(&core, &waker, 3, MAX_BLOCK / 4);
-        assert_eq!(lock(&core).stats().datagrams_in, 0);
+        assert_eq!(core.with(|c| c.stats().datagrams_in), 0);
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap().unwrap();
     }
@@ -228,5 +224,27 @@ mod tests {
         assert!(started.elapsed() < MAX_BLOCK);
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap().unwrap();
+    }
+    /// While a server runs, its loop owns the core: the library API's calls run in its turns, and the core
+    /// comes back to the handle, with what they did, when the server stops.
+    #[test]
+    fn api_calls_reach_the_core_a_running_server_owns() {
+        let (core, _) = spy_core::<std::net::SocketAddr>();
+        let server = udp::UdpServer::bind("127.0.0.1:0".parse().unwrap(), core.clone()).unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let s2 = stop.clone();
+        let t = std::thread::spawn(move || server.run(&s2));
+        std::thread::sleep(Duration::from_millis(50));
+        assert!(format!("{core:?}").contains("running server"), "the loop took the core");
+        let key = ClientKey::from_u32(0x0102_0304);
+        let status = core.with(move |c| c.create_client(key, 0x81, 512, Instant::now()));
+        assert!(status.is_ok(), "{status:?}");
+        let second = udp::UdpServer::bind("127.0.0.1:0".parse().unwrap(), core.clone()).unwrap();
+        let refused = second.run(&AtomicBool::new(false)).unwrap_err();
+        assert!(refused.to_string().contains("another server"), "{refused}");
+        stop.store(true, Ordering::Relaxed);
+        t.join().unwrap().unwrap();
+        assert!(format!("{core:?}").contains("parked"));
+        assert!(core.with(move |c| c.has_client(key)), "the client created through the loop is in the core");
     }
 }

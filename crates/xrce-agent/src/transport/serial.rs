@@ -6,6 +6,12 @@
 //! holds once it has not moved for [`WRITE_TIMEOUT`], and takes no new frame past [`MAX_BACKLOG`] bytes;
 //! nothing else waits for it, and reliable streams recover.
 //!
+//! A device that goes away (a USB adapter unplugged: reads hang up or fail, writes fail with EIO) is closed,
+//! which lets the kernel give the adapter the same name when it is plugged back, and opened again with the
+//! same settings every [`REOPEN_EVERY`] until it is back; the other lines go on meanwhile. The core keeps the
+//! clients' sessions, so a client that kept running goes on where it was (its reliable streams resend what
+//! was lost), and one that restarted creates its session again.
+//!
 //! Line settings (raw 8N1, no flow control, the baud rate) are made by the `serialport` crate, which sets
 //! any rate the driver takes (termios2 on Linux), not only the standard ones.
 
@@ -34,6 +40,8 @@ pub const MAX_MESSAGE: usize = 65_535;
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(1);
 /// Most bytes waiting for a line (5.7 s at 115200 baud); frames past it are dropped.
 pub const MAX_BACKLOG: usize = 64 * 1024;
+/// How often a device that went away is tried again (the loop turns at least every [`MAX_BLOCK`]).
+pub const REOPEN_EVERY: Duration = Duration::from_millis(500);
 
 /// A client on a serial line: the line's index and the client's address (its frames' source).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -49,8 +57,18 @@ pub struct SerialEndpoint {
 pub struct Line {
     file: File,
     name: String,
+    /// How to open the device again once it went away; none for a pseudoterminal the agent created.
+    reopen: Option<Settings>,
     /// A pseudoterminal's slave side, kept open so reading the master never fails while no client has it open.
     _slave: Option<std::os::fd::OwnedFd>,
+}
+
+/// A device's path and line settings.
+#[derive(Debug, Clone)]
+struct Settings {
+    path: PathBuf,
+    baud: u32,
+    rts_cts: bool,
 }
 
 fn to_io(e: nix::Error) -> io::Error {
@@ -94,7 +112,8 @@ impl Line {
             .open(path)?;
         make_raw(&file, baud, rts_cts)?;
         set_nonblocking(&file)?;
-        Ok(Self { file, name: path.display().to_string(), _slave: None })
+        let reopen = Some(Settings { path: path.to_path_buf(), baud, rts_cts });
+        Ok(Self { file, name: path.display().to_string(), reopen, _slave: None })
     }
 
     /// Creates a pseudoterminal; clients open [`Self::name`] (the slave side).
@@ -104,7 +123,7 @@ impl Line {
         let name = nix::unistd::ttyname(&pty.slave).map_err(to_io)?;
         let file = File::from(pty.master);
         set_nonblocking(&file)?;
-        Ok(Self { file, name: name.display().to_string(), _slave: Some(pty.slave) })
+        Ok(Self { file, name: name.display().to_string(), reopen: None, _slave: Some(pty.slave) })
     }
 
     /// The device path.
@@ -148,7 +167,9 @@ impl SerialServer {
             for (index, line) in self.lines.into_iter().enumerate() {
                 registry.register(&mut SourceFd(&line.file.as_raw_fd()), token(index), Interest::READABLE)?;
                 lines.push(LineIo {
-                    line,
+                    name: line.name.clone(),
+                    reopen: line.reopen.clone(),
+                    line: Some(line),
                     decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
                     // Bytes may have arrived before the registration.
                     readable: true,
@@ -178,11 +199,16 @@ struct SerialIo {
 
 /// One line's reading and writing state.
 struct LineIo {
-    line: Line,
+    /// The open line; none while its device is gone.
+    line: Option<Line>,
+    name: String,
+    /// How to open the device again; none for a pseudoterminal the agent created.
+    reopen: Option<Settings>,
     decoder: FrameDecoder<Vec<u8>>,
     /// Readiness was reported since the last read.
     readable: bool,
-    /// The last read failed (no carrier, device gone): read again from then on, rather than spin.
+    /// The last read failed (a pseudoterminal with no client) or the device is gone: read again, or open
+    /// it again, from then on, rather than spin.
     retry_at: Option<Instant>,
     /// Encoded frames waiting for room on the line, front first.
     outbox: Vec<u8>,
@@ -202,29 +228,34 @@ impl Io<SerialEndpoint> for SerialIo {
         let now = inbox.now();
         for (index, l) in (0u16..).zip(self.lines.iter_mut()) {
             let retry = l.retry_at.is_some_and(|t| t <= now);
-            if !(l.readable || retry) {
+            if l.line.is_none() {
+                if retry {
+                    l.reopen(&self.registry, token(usize::from(index)), now);
+                }
+                if l.line.is_none() {
+                    continue;
+                }
+            } else if !(l.readable || retry) {
                 continue;
             }
             l.readable = false;
             l.retry_at = None;
-            loop {
-                let n = match l.line.file.read(&mut self.buf) {
+            while let Some(line) = l.line.as_mut() {
+                let n = match line.file.read(&mut self.buf) {
+                    // In raw mode a terminal reads 0 only once hung up (device unplugged, other side closed).
                     Ok(0) => {
-                        // A serial line at EOF (no carrier).
-                        l.retry_at = Some(now + MAX_BLOCK);
+                        l.failed(&self.registry, now, &"hung up");
                         break;
                     }
                     Ok(n) => n,
                     Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
                     Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                     Err(e) => {
-                        // A pty master reports EIO while no slave is open: wait for a client.
-                        tracing::debug!(line = %l.line.name, "read failed: {e}");
-                        l.retry_at = Some(now + MAX_BLOCK);
+                        l.failed(&self.registry, now, &e);
                         break;
                     }
                 };
-                let name = &l.line.name;
+                let name = &l.name;
                 l.decoder.push(self.buf.get(..n).unwrap_or(&[]), |event| match event {
                     Event::Frame { src, payload, .. } => {
                         inbox.deliver(SerialEndpoint { line: index, address: src }, payload);
@@ -239,7 +270,8 @@ impl Io<SerialEndpoint> for SerialIo {
     fn send(&mut self, out: &mut Vec<Transmit<SerialEndpoint>>, spent: &mut Spent<SerialEndpoint>) {
         let now = Instant::now();
         for t in out.drain(..) {
-            if let Some(l) = self.lines.get_mut(usize::from(t.to.line)) {
+            // Nothing is queued for a device that is gone: the clients' reliable streams resend once it is back.
+            if let Some(l) = self.lines.get_mut(usize::from(t.to.line)).filter(|l| l.line.is_some()) {
                 l.queue(t.to.address, &t.data, now);
             }
             spent.buffers.push(t.data);
@@ -248,11 +280,15 @@ impl Io<SerialEndpoint> for SerialIo {
             if l.outbox.is_empty() {
                 continue;
             }
-            l.flush(now);
+            if let Err(e) = l.flush(now) {
+                l.failed(&self.registry, now, &e);
+                continue;
+            }
             let want_writable = !l.outbox.is_empty();
+            let Some(line) = l.line.as_ref() else { continue };
             if want_writable != l.writable_interest {
                 let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
-                let fd = l.line.file.as_raw_fd();
+                let fd = line.file.as_raw_fd();
                 if self.registry.reregister(&mut SourceFd(&fd), token(index), interest).is_ok() {
                     l.writable_interest = want_writable;
                 }
@@ -262,12 +298,63 @@ impl Io<SerialEndpoint> for SerialIo {
 }
 
 impl LineIo {
+    /// A read or write failed. A device is closed (deregistered first) and opened again from
+    /// [`REOPEN_EVERY`] on; a pseudoterminal the agent created (EIO while no client has it open) is read
+    /// again after [`MAX_BLOCK`].
+    fn failed(&mut self, registry: &Registry, now: Instant, why: &dyn std::fmt::Display) {
+        if self.reopen.is_none() {
+            tracing::debug!(line = %self.name, "read or write failed: {why}");
+            self.retry_at = Some(now + MAX_BLOCK);
+            return;
+        }
+        if let Some(line) = self.line.take() {
+            // Deregistered before it is closed (dropped here).
+            let _ = registry.deregister(&mut SourceFd(&line.file.as_raw_fd()));
+            tracing::warn!(
+                "serial device {} is gone ({why}); trying to open it again every {REOPEN_EVERY:?}",
+                self.name
+            );
+        }
+        self.outbox.clear();
+        self.writable_interest = false;
+        self.readable = false;
+        self.decoder.reset();
+        self.retry_at = Some(now + REOPEN_EVERY);
+    }
+
+    /// Tries to open a device that went away again, with its settings, and registers it under `token`.
+    fn reopen(&mut self, registry: &Registry, token: Token, now: Instant) {
+        let Some(settings) = self.reopen.as_ref() else { return };
+        self.retry_at = Some(now + REOPEN_EVERY);
+        let line = match Line::open(&settings.path, settings.baud, settings.rts_cts) {
+            Ok(line) => line,
+            Err(e) => {
+                tracing::debug!(device = %self.name, "serial device still gone: {e}");
+                return;
+            }
+        };
+        if let Err(e) = registry.register(&mut SourceFd(&line.file.as_raw_fd()), token, Interest::READABLE) {
+            tracing::warn!(device = %self.name, "serial device reopened but not watched: {e}");
+            return;
+        }
+        tracing::info!(
+            baud = settings.baud,
+            rts_cts = settings.rts_cts,
+            "serial device {} is back, open again",
+            self.name
+        );
+        self.line = Some(line);
+        // Bytes may have arrived before the registration.
+        self.readable = true;
+        self.retry_at = None;
+    }
+
     /// Frames `data` for the client at `address` into the outbox.
     fn queue(&mut self, address: u8, data: &[u8], now: Instant) {
         let start = self.outbox.len();
         // A frame larger than the whole backlog still goes out alone.
         if start > 0 && start + max_encoded_len(data.len()) > MAX_BACKLOG {
-            tracing::debug!(line = %self.line.name, "line backlog full, frame dropped");
+            tracing::debug!(line = %self.name, "line backlog full, frame dropped");
             return;
         }
         self.outbox.resize(start + max_encoded_len(data.len()), 0);
@@ -275,7 +362,7 @@ impl LineIo {
             Ok(n) => self.outbox.truncate(start + n),
             Err(e) => {
                 self.outbox.truncate(start);
-                tracing::warn!(line = %self.line.name, len = data.len(), "cannot frame message: {e}");
+                tracing::warn!(line = %self.name, len = data.len(), "cannot frame message: {e}");
                 return;
             }
         }
@@ -284,13 +371,17 @@ impl LineIo {
         }
     }
 
-    /// Writes as much of the outbox as the line takes now; drops it when the line failed or has taken
-    /// nothing for [`WRITE_TIMEOUT`] (a frame cut short is discarded by the peer's decoder at the next
-    /// flag).
-    fn flush(&mut self, now: Instant) {
+    /// Writes as much of the outbox as the line takes now; drops it when the line failed (the error is
+    /// returned) or has taken nothing for [`WRITE_TIMEOUT`] (a frame cut short is discarded by the peer's
+    /// decoder at the next flag).
+    fn flush(&mut self, now: Instant) -> io::Result<()> {
+        let Some(line) = self.line.as_mut() else {
+            self.outbox.clear();
+            return Ok(());
+        };
         let mut written = 0;
         let failed = loop {
-            match self.line.file.write(self.outbox.get(written..).unwrap_or(&[])) {
+            match line.file.write(self.outbox.get(written..).unwrap_or(&[])) {
                 Ok(0) => break None,
                 Ok(n) => {
                     written += n;
@@ -308,12 +399,14 @@ impl LineIo {
             self.progress_at = now;
         }
         if let Some(e) = failed {
-            tracing::debug!(line = %self.line.name, bytes = self.outbox.len(), "serial write failed, frames dropped: {e}");
+            tracing::debug!(line = %self.name, bytes = self.outbox.len(), "serial write failed, frames dropped: {e}");
             self.outbox.clear();
+            return Err(e);
         } else if !self.outbox.is_empty() && now.saturating_duration_since(self.progress_at) >= WRITE_TIMEOUT {
-            tracing::debug!(line = %self.line.name, bytes = self.outbox.len(), "line not read for {WRITE_TIMEOUT:?}, frames dropped");
+            tracing::debug!(line = %self.name, bytes = self.outbox.len(), "line not read for {WRITE_TIMEOUT:?}, frames dropped");
             self.outbox.clear();
         }
+        Ok(())
     }
 }
 
@@ -326,7 +419,6 @@ mod tests {
     use crate::transport::DynMiddleware;
     use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
     use std::sync::atomic::Ordering;
-    use std::sync::Mutex;
     use std::thread;
 
     /// A client on the pseudoterminal's slave side pings the agent (GET_INFO out of session) in a frame from
@@ -335,7 +427,7 @@ mod tests {
     fn pseudoterminal_answers_a_framed_ping() {
         let core =
             AgentCore::new(CoreConfig::default(), Box::new(Ced::new(Arc::new(FallbackProfiles))) as DynMiddleware);
-        let core = Arc::new(Mutex::new(core));
+        let core = SharedCore::new(core);
         let line = Line::pseudoterminal(115_200).unwrap();
         let path = line.path();
         assert!(path.starts_with("/dev/pts"), "{path:?}");

@@ -6,7 +6,7 @@
 //! ACKNACKs owed at once ([`AgentCore::poll_acknack`](crate::core::AgentCore::poll_acknack)), then delivers
 //! the batch's samples and sends the rest in batches (`sendmmsg`; a run of equal-size datagrams to one peer,
 //! such as the fragments of a sample, as one UDP GSO send). After a turn that received datagrams the next
-//! batch is read at once, without a readiness poll, as long as datagrams keep coming. Socket buffers are
+//! batch is read at once, without a readiness poll, as long as batches come back full. Socket buffers are
 //! enlarged ([`SOCKET_BUFFER`]) so bursts are queued rather than dropped while the thread is descheduled.
 //! Sent buffers go back to the core's pool: no allocation per message once warm. Sends block (the socket
 //! stays in blocking mode) as they always did; receives never do.
@@ -21,7 +21,7 @@ use mio::unix::SourceFd;
 use mio::{Interest, Token};
 use socket2::{Domain, Protocol, Socket, Type};
 
-use super::batch::{RecvBatch, SendBatch};
+use super::batch::{RecvBatch, SendBatch, BATCH};
 use super::discovery::DiscoveryServer;
 use super::drive::{EventLoop, Inbox, Io, Spent};
 use super::SharedCore;
@@ -101,8 +101,13 @@ struct UdpIo<'a> {
     socket: &'a UdpSocket,
     rx: RecvBatch,
     tx: SendBatch,
-    /// Datagrams may be queued: readiness was reported, or the last batch got some (more may have come
-    /// during the turn; readiness is edge-triggered, so a batch that left some behind is not announced).
+    /// Datagrams may be queued: readiness was reported, or the last batch was full (it may have left some
+    /// behind, which edge-triggered readiness does not announce again). A partial batch drained the queue:
+    /// the kernel's `recvmmsg` stops short only at an empty queue or at an error, and an error is queued
+    /// on an unconnected socket only with `IP_RECVERR`, which the agent does not set. Every datagram that
+    /// arrives later raises a readiness event of its own (Linux wakes an edge-triggered epoll per arrival),
+    /// so skipping the read that would find the queue empty costs nothing (one system call per wake-up
+    /// less); a turn woken by its timer alone reads anyway ([`Io::idle`]), in case.
     readable: bool,
     /// Datagrams in `rx` not yet handed to the core.
     fetched: usize,
@@ -111,7 +116,7 @@ struct UdpIo<'a> {
 impl UdpIo<'_> {
     fn fetch(&mut self) -> io::Result<()> {
         self.fetched = self.rx.recv(self.socket)?;
-        self.readable = self.fetched > 0;
+        self.readable = self.fetched == BATCH;
         Ok(())
     }
 }
@@ -120,6 +125,10 @@ impl Io<SocketAddr> for UdpIo<'_> {
     const EARLY_ACKNACKS: bool = true;
 
     fn ready(&mut self, _event: &Event) {
+        self.readable = true;
+    }
+
+    fn idle(&mut self) {
         self.readable = true;
     }
 

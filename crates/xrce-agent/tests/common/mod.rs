@@ -177,7 +177,7 @@ impl<M: xrce_agent::middleware::Middleware> Harness<M> {
 
     pub fn drain(&mut self) {
         let mut acks: Vec<(u16, Vec<u8>)> = Vec::new();
-        while let Some(t) = self.core.poll_transmit() {
+        while let Some(t) = self.core.poll_transmit(self.now) {
             let port = t.to;
             let (header, _) = decode_owned(&t.data);
             if header.stream_id.is_reliable() {

@@ -1,11 +1,14 @@
 //! The blocking session: the sans-IO core driven over a [`Transport`] with a [`Clock`], and the `run_session_*`
 //! family with the semantics the C API documents.
 
+#[cfg(feature = "std")]
+use super::replay::{Replay, Unacked};
 use super::{
-    Callbacks, Outputs, PingState, SessionCore, SessionState, TimeSample, MILLIS, SESSION_CONNECTION_INTERVAL_MS,
+    Callbacks, Outputs, PingState, Reconnect, SessionCore, SessionEvent, SessionState, TimeSample, MILLIS,
+    SESSION_CONNECTION_INTERVAL_MS,
 };
 use crate::error::{Error, Result};
-use crate::transport::Transport;
+use crate::transport::{Transport, TransportError};
 use crate::{WriteAccess, STATUS_NONE};
 use xrce_proto::{ObjectId, SampleIdentity, StreamId};
 
@@ -54,16 +57,168 @@ struct Io<T, K, const MTU: usize> {
     transport: T,
     clock: K,
     buf: [u8; MTU],
+    /// The transport failed while reconnection is on: when to reopen it next ([`WORKING`] when it works).
+    reopen_at: i64,
+    /// The wait before the next reopening, in milliseconds; it grows with every failure until the session is
+    /// back (0: no failure since), so a transport that fails right after each reopening (UDP to a dead port:
+    /// every send meets the ICMP error of the previous one) is not reopened and retried in a tight loop.
+    reopen_ms: u16,
+    /// Entities and reads to create again after a re-creation (boxed: the session stays small on the stack).
+    #[cfg(feature = "std")]
+    replay: Box<Replay>,
 }
 
 impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
+    fn new(transport: T, clock: K) -> Self {
+        Self {
+            transport,
+            clock,
+            buf: [0; MTU],
+            reopen_at: WORKING,
+            reopen_ms: 0,
+            #[cfg(feature = "std")]
+            replay: Box::default(),
+        }
+    }
+
     fn send_pending<const A: usize, const B: usize, const C: usize, const D: usize>(
         &mut self,
         core: &mut SessionCore<'_, A, B, C, D>,
     ) -> Result<()> {
         let now = self.clock.now_nanos();
         while let Some(n) = core.poll_transmit(now, &mut self.buf) {
-            self.transport.send(self.buf.get(..n).unwrap_or(&[]))?;
+            let msg = self.buf.get(..n).unwrap_or(&[]);
+            #[cfg(feature = "std")]
+            self.replay.observe(msg);
+            if self.broken() {
+                continue;
+            }
+            if let Err(e) = self.transport.send(msg) {
+                self.failed(core, e)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A transport error: with reconnection on and a session to keep, the session counts as lost and the
+    /// transport is reopened until it works; otherwise the error goes to the caller.
+    fn failed<const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+        e: TransportError,
+    ) -> Result<()> {
+        let Some(config) = core.reconnect_config() else { return Err(e.into()) };
+        if core.state() != SessionState::Established && !core.is_reconnecting() {
+            return Err(e.into());
+        }
+        let now = self.clock.now_nanos();
+        if core.state() == SessionState::Established {
+            core.reconnect(now);
+        }
+        if !self.broken() {
+            // The first failure reopens at once (a TCP connection reset by a live agent); later ones back off.
+            self.reopen_at = now + i64::from(self.reopen_ms) * MILLIS;
+            self.reopen_ms =
+                self.reopen_ms.saturating_mul(2).clamp(config.retry_min_ms.max(1), config.retry_max_ms.max(1));
+        }
+        Ok(())
+    }
+
+    /// Reopens a failed transport when it is time.
+    fn reopen<const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+    ) {
+        let now = self.clock.now_nanos();
+        if !self.broken() || now < self.reopen_at {
+            return;
+        }
+        let _ = self.transport.close();
+        if self.transport.open().is_ok() {
+            self.reopen_at = WORKING;
+            // Try the agent at once rather than at the next attempt of the back-off.
+            core.reconnect(now);
+        } else {
+            let max = core.reconnect_config().map_or(1000, |c| c.retry_max_ms.max(1));
+            self.reopen_at = now + i64::from(self.reopen_ms) * MILLIS;
+            self.reopen_ms = self.reopen_ms.saturating_mul(2).clamp(1, max);
+        }
+    }
+
+    const fn broken(&self) -> bool {
+        self.reopen_at != WORKING
+    }
+
+    /// Reports what happened to the session and, after a re-creation, writes the entities, reads and
+    /// unacknowledged messages again.
+    fn service<H: Callbacks + ?Sized, const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+        h: &mut H,
+    ) -> Result<()> {
+        while let Some(event) = core.poll_event() {
+            match event {
+                SessionEvent::Lost => h.on_session_lost(),
+                SessionEvent::Restored { recreated } => {
+                    self.reopen_ms = 0;
+                    #[cfg(feature = "std")]
+                    if recreated {
+                        self.start_replay(core);
+                    }
+                    h.on_session_restored(recreated);
+                }
+            }
+        }
+        #[cfg(feature = "std")]
+        self.drain_replay(core, h)?;
+        Ok(())
+    }
+
+    #[cfg(feature = "std")]
+    fn start_replay<const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+    ) {
+        let streams: Vec<_> = core.reliable_output_streams().collect();
+        let mut unacked = Unacked::default();
+        for s in streams {
+            let _ = core.take_reliable_output(s, |body, _| unacked.message(s, body));
+        }
+        self.replay.start(unacked.items);
+    }
+
+    /// Writes what the replay still holds, running the session while the histories are full, until all is
+    /// written or the session is lost again (the rest waits for the next re-creation or resumption).
+    #[cfg(feature = "std")]
+    fn drain_replay<H: Callbacks + ?Sized, const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        core: &mut SessionCore<'_, A, B, C, D>,
+        h: &mut H,
+    ) -> Result<()> {
+        while !self.replay.pending.is_empty() && core.state() == SessionState::Established {
+            while let Some(item) = self.replay.pending.front() {
+                let written = core.outputs().write_parts(item.stream, &[&item.bytes]);
+                if written == Err(Error::WouldBlock) {
+                    break;
+                }
+                // Written, or never writable (a stream gone): either way done with it.
+                self.replay.pending.pop_front();
+            }
+            core.flash_output_streams();
+            if self.replay.pending.is_empty() {
+                break;
+            }
+            self.send_pending(core)?;
+            let now = self.clock.now_nanos();
+            let wait = core.poll_timeout().map_or(100, |t| ((t - now).max(0) + MILLIS - 1) / MILLIS).min(100);
+            match self.transport.recv(&mut self.buf, i32::try_from(wait).unwrap_or(100)) {
+                Ok(Some(n)) => {
+                    let now = self.clock.now_nanos();
+                    core.handle_input(self.buf.get(..n).unwrap_or(&[]), now, h);
+                }
+                Ok(None) => {}
+                Err(e) => self.failed(core, e)?,
+            }
         }
         Ok(())
     }
@@ -79,27 +234,39 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         let start = self.clock.now_nanos();
         let deadline = (timeout_ms >= 0).then(|| start + i64::from(timeout_ms) * MILLIS);
         loop {
+            self.reopen(core);
+            self.service(core, h)?;
             self.send_pending(core)?;
             let now = self.clock.now_nanos();
             let until_deadline = deadline.map(|d| (d - now).max(0));
             let until_timer = core.poll_timeout().map(|t| (t - now).max(0));
-            let wait = match (until_deadline, until_timer) {
-                (Some(a), Some(b)) => Some(a.min(b)),
-                (a, b) => a.or(b),
-            };
+            let until_reopen = self.broken().then(|| (self.reopen_at - now).max(0));
+            let wait = [until_deadline, until_timer, until_reopen].into_iter().flatten().min();
             let wait_ms = wait.map_or(-1, |ns| i32::try_from((ns + MILLIS - 1) / MILLIS).unwrap_or(i32::MAX));
-            if let Some(n) = self.transport.recv(&mut self.buf, wait_ms)? {
-                let now = self.clock.now_nanos();
-                let written = core.last_request_id();
-                core.handle_input(self.buf.get(..n).unwrap_or(&[]), now, h);
-                if core.last_request_id() != written {
-                    // A callback wrote (a replier's reply, say): send it now rather than at the next run, so
-                    // `run_session_time` and friends do not end with it unsent (the C client waits for the next
-                    // `uxr_run_session_*` call, a full timeout later).
-                    core.flash_output_streams();
+            if self.broken() {
+                // Nothing to read from a failed transport: wait for the next reopen or timer.
+                pause(wait_ms);
+            } else {
+                match self.transport.recv(&mut self.buf, wait_ms) {
+                    Ok(Some(n)) => {
+                        let now = self.clock.now_nanos();
+                        let written = core.last_request_id();
+                        core.handle_input(self.buf.get(..n).unwrap_or(&[]), now, h);
+                        if core.last_request_id() != written {
+                            // A callback wrote (a replier's reply, say): send it now rather than at the next run, so
+                            // `run_session_time` and friends do not end with it unsent (the C client waits for the
+                            // next `uxr_run_session_*` call, a full timeout later).
+                            core.flash_output_streams();
+                        }
+                        self.service(core, h)?;
+                        self.send_pending(core)?;
+                        if !core.last_input_was_probe_answer() {
+                            return Ok(true);
+                        }
+                    }
+                    Ok(None) => {}
+                    Err(e) => self.failed(core, e)?,
                 }
-                self.send_pending(core)?;
-                return Ok(true);
             }
             if until_deadline == Some(0) || deadline.is_some_and(|d| self.clock.now_nanos() >= d) {
                 return Ok(false);
@@ -107,6 +274,19 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         }
     }
 }
+
+/// `reopen_at` of a transport that works.
+const WORKING: i64 = i64::MIN;
+
+/// Sleeps while the transport is down (without `std` there is no way to sleep: the loop polls the clock).
+#[cfg(feature = "std")]
+fn pause(ms: i32) {
+    let ms = u64::try_from(ms.clamp(0, 100)).unwrap_or(100);
+    std::thread::sleep(std::time::Duration::from_millis(ms));
+}
+
+#[cfg(not(feature = "std"))]
+const fn pause(_ms: i32) {}
 
 /// Wraps the user's callbacks to record statuses of awaited requests and whether data arrived.
 struct Tracker<'c, C: ?Sized> {
@@ -164,6 +344,12 @@ impl<C: Callbacks + ?Sized> Callbacks for Tracker<'_, C> {
         }
         self.inner.on_request_status(request_id, status);
     }
+    fn on_session_lost(&mut self) {
+        self.inner.on_session_lost();
+    }
+    fn on_session_restored(&mut self, recreated: bool) {
+        self.inner.on_session_restored(recreated);
+    }
 }
 
 /// A session over a transport: the C API's `uxrSession` with its `uxrCommunication`.
@@ -214,11 +400,41 @@ impl<
         C: Default,
     {
         let mtu = transport.mtu().min(MTU);
-        Self {
-            core: SessionCore::new(super::DEFAULT_SESSION_ID, key, mtu),
-            io: Io { transport, clock, buf: [0; MTU] },
-            callbacks: C::default(),
-        }
+        let mut core = SessionCore::new(super::DEFAULT_SESSION_ID, key, mtu);
+        core.set_reconnect(Some(Reconnect::default()));
+        Self { core, io: Io::new(transport, clock), callbacks: C::default() }
+    }
+
+    /// Sets automatic reconnection: on by default with [`Reconnect::default`]; `None` turns it off (transport
+    /// errors then end the `run_session_*` call, as before, and a dead agent goes unnoticed).
+    ///
+    /// With it on, a dead agent (probes unanswered, the agent saying it does not know the session, or a
+    /// transport error) is reported to [`Callbacks::on_session_lost`]; the session then tries again and again
+    /// (reopening a failed transport) and, once back, reports [`Callbacks::on_session_restored`]. If the agent
+    /// had lost the session it is created again with the same key and id, every entity and continuous read sent
+    /// so far is created again (with REUSE), and then the reliable output the agent had not acknowledged is sent
+    /// again, in order. docs/client-api.md says what this guarantees.
+    #[must_use]
+    pub fn with_reconnect(mut self, config: Option<Reconnect>) -> Self {
+        self.core.set_reconnect(config);
+        self
+    }
+
+    /// As [`with_reconnect`](Self::with_reconnect), on a session in use.
+    pub fn set_reconnect(&mut self, config: Option<Reconnect>) {
+        self.core.set_reconnect(config);
+    }
+
+    /// How many entities the session would create again after a re-creation (those created and not deleted).
+    #[cfg(feature = "std")]
+    pub fn recorded_entities(&self) -> usize {
+        self.io.replay.entity_count()
+    }
+
+    /// Counts the session as lost now and starts reconnecting (the application knows the link went down).
+    pub fn reconnect(&mut self) {
+        let now = self.now();
+        self.core.reconnect(now);
     }
 
     /// Uses session id `session_id` (below 0x80 the client key travels in every header). Call before creating
@@ -226,7 +442,9 @@ impl<
     #[must_use]
     pub fn with_session_id(mut self, session_id: u8) -> Self {
         let key = self.core.client_key().to_u32();
+        let reconnect = self.core.reconnect_config();
         self.core = SessionCore::new(session_id, key, self.core.mtu());
+        self.core.set_reconnect(reconnect);
         self
     }
 
@@ -287,6 +505,8 @@ impl<
 
     /// `uxr_create_session_retries`.
     pub fn create_session_retries(&mut self, attempts: usize) -> Result<()> {
+        #[cfg(feature = "std")]
+        self.io.replay.clear();
         let now = self.now();
         self.core.create_session_retries(attempts, now);
         while self.core.state() == SessionState::Creating {
@@ -306,6 +526,8 @@ impl<
 
     /// `uxr_delete_session_retries`.
     pub fn delete_session_retries(&mut self, attempts: usize) -> Result<bool> {
+        #[cfg(feature = "std")]
+        self.io.replay.clear();
         let now = self.now();
         self.core.delete_session_retries(attempts, now);
         let mut confirmed = false;

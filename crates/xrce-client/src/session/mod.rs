@@ -7,12 +7,16 @@
 //! nanoseconds since the Unix epoch (the value time synchronisation needs); only differences are used for timers.
 
 mod blocking;
+mod liveness;
 mod outputs;
 pub mod ping;
+#[cfg(feature = "std")]
+mod replay;
 
 #[cfg(feature = "std")]
 pub use blocking::StdClock;
 pub use blocking::{Clock, Session};
+pub use liveness::{Reconnect, SessionEvent};
 pub use outputs::{Outputs, Prepared, ServiceNames};
 
 use crate::error::{Error, Result};
@@ -101,6 +105,17 @@ pub trait Callbacks {
     fn on_request_status(&mut self, request_id: u16, status: u8) {
         let _ = (request_id, status);
     }
+
+    /// The agent stopped answering (or lost the session); the blocking [`Session`] is reconnecting. Writes
+    /// still go into the streams: reliable ones keep them (until their history is full), best-effort ones drop
+    /// them.
+    fn on_session_lost(&mut self) {}
+
+    /// The session works again; `recreated` when the agent had lost it and the blocking [`Session`] created it
+    /// again with its entities and reads (see [`SessionEvent::Restored`]).
+    fn on_session_restored(&mut self, recreated: bool) {
+        let _ = recreated;
+    }
 }
 
 impl Callbacks for () {}
@@ -145,6 +160,12 @@ impl<T: Callbacks + ?Sized> Callbacks for &mut T {
     fn on_request_status(&mut self, request_id: u16, status: u8) {
         (**self).on_request_status(request_id, status);
     }
+    fn on_session_lost(&mut self) {
+        (**self).on_session_lost();
+    }
+    fn on_session_restored(&mut self, recreated: bool) {
+        (**self).on_session_restored(recreated);
+    }
 }
 
 /// The four timestamps of a time-synchronisation exchange, nanoseconds since the epoch.
@@ -184,6 +205,8 @@ pub enum SessionState {
     Deleting,
     /// The agent confirmed the deletion (or every attempt went unanswered).
     Deleted,
+    /// The agent stopped answering; reconnection attempts are under way (see [`Reconnect`]).
+    Reconnecting,
 }
 
 /// Progress of an in-session ping.
@@ -240,6 +263,7 @@ struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     time_offset: i64,
     info_reply: Option<BaseObjectRequest>,
     packed_input: bool,
+    live: liveness::Liveness,
     /// Pre-shared key and the nonce of the current session creation (the next one adds one).
     #[cfg(feature = "psk")]
     psk: Option<(&'a [u8], u64)>,
@@ -292,6 +316,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 time_offset: 0,
                 info_reply: None,
                 packed_input: false,
+                live: liveness::Liveness::new(),
                 #[cfg(feature = "psk")]
                 psk: None,
             },
@@ -443,6 +468,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             *nonce = nonce.wrapping_add(1);
         }
         self.reset_streams();
+        self.st.live.recreating = false;
         self.st.state = SessionState::Creating;
         self.st.session_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
@@ -458,6 +484,85 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         self.st.state = SessionState::Deleting;
         self.st.session_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
+    }
+
+    // ---- reconnection ----------------------------------------------------------------------------------
+
+    /// Turns automatic reconnection on (`Some`) or off (`None`, the default of the core; the blocking
+    /// [`Session`] turns it on). See [`Reconnect`] for what it does and [`poll_event`](Self::poll_event) for
+    /// what it reports.
+    pub fn set_reconnect(&mut self, config: Option<Reconnect>) {
+        self.st.live.config = config;
+    }
+
+    /// The reconnection settings, `None` when off.
+    pub const fn reconnect_config(&self) -> Option<Reconnect> {
+        self.st.live.config
+    }
+
+    /// Counts the session as lost now (a transport error, say) and starts reconnection attempts; while already
+    /// reconnecting, makes the next attempt now (the transport just came back, say). Does nothing otherwise, or
+    /// with reconnection off.
+    pub fn reconnect(&mut self, now: i64) {
+        if self.st.live.config.is_none() {
+            return;
+        }
+        match self.st.state {
+            SessionState::Established => lose(&mut self.st, now),
+            SessionState::Reconnecting => self.st.live.start_attempts(now),
+            _ => {}
+        }
+    }
+
+    /// Whether the session is lost and being brought back (attempts, or its re-creation under way).
+    pub const fn is_reconnecting(&self) -> bool {
+        matches!(self.st.state, SessionState::Reconnecting)
+            || (matches!(self.st.state, SessionState::Creating) && self.st.live.recreating)
+    }
+
+    /// Whether the last input was only an agent's answer to a liveness probe (nothing for the application).
+    pub const fn last_input_was_probe_answer(&self) -> bool {
+        self.st.live.probe_answer
+    }
+
+    /// The next thing that happened to the session ([`SessionEvent::Lost`], [`SessionEvent::Restored`]).
+    pub fn poll_event(&mut self) -> Option<SessionEvent> {
+        self.st.live.pop()
+    }
+
+    /// Hands the messages of reliable output stream `stream` not acknowledged yet to `visit`, in order (bytes
+    /// after the message header, and whether the message ends with a FRAGMENT), and empties the stream, whose
+    /// numbering restarts at 0 (so use it right after a re-creation, before anything is sent). After a
+    /// re-creation ([`SessionEvent::Restored`] with `recreated`) they are already renumbered from 0 and would go
+    /// out as they are; taking them out lets the caller send the entity creations first, then give them back
+    /// with [`restore_reliable_output`](Self::restore_reliable_output).
+    pub fn take_reliable_output(&mut self, stream: StreamId, visit: impl FnMut(&[u8], bool)) -> Result<()> {
+        match (stream.kind(), self.st.out_rel.get_mut(usize::from(stream.index()))) {
+            (StreamKind::Reliable, Some(Some(s))) => {
+                s.take_messages(visit);
+                Ok(())
+            }
+            _ => Err(Error::UnknownStream),
+        }
+    }
+
+    /// Appends a message taken by [`take_reliable_output`](Self::take_reliable_output) to reliable output
+    /// stream `stream`; [`Error::WouldBlock`] while its history is full.
+    pub fn restore_reliable_output(&mut self, stream: StreamId, body: &[u8], ends_with_fragment: bool) -> Result<()> {
+        match (stream.kind(), self.st.out_rel.get_mut(usize::from(stream.index()))) {
+            (StreamKind::Reliable, Some(Some(s))) => s.restore_message(body, ends_with_fragment),
+            _ => Err(Error::UnknownStream),
+        }
+    }
+
+    /// The ids of the reliable output streams created.
+    pub fn reliable_output_streams(&self) -> impl Iterator<Item = StreamId> + '_ {
+        self.st
+            .out_rel
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.is_some())
+            .map(|(i, _)| StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable))
     }
 
     // ---- ping and time ---------------------------------------------------------------------------------
@@ -505,9 +610,38 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// Processes one received message, calling `cb` for what it carries.
     pub fn handle_input<C: Callbacks + ?Sized>(&mut self, msg: &[u8], now: i64, cb: &mut C) {
+        self.st.live.probe_answer = false;
         let Ok((header, hs)) = MessageHeader::decode(msg) else { return };
+        if header.session_id & 0x7F == 0 && self.st.state == SessionState::Reconnecting {
+            // An answer outside the session: an agent is there; unless it answers in the session too, it lost us.
+            if first_info(msg, hs).is_some() {
+                self.st.live.agent_seen(now);
+            }
+            return;
+        }
         if header.session_id != self.st.session_id || header.client_key.is_some_and(|k| k != self.st.key) {
             return;
+        }
+        if self.st.live.config.is_some() {
+            if first_info(msg, hs) == Some(0) {
+                // The agent answers our probe but does not know the session: it restarted, or dropped us.
+                if self.st.state == SessionState::Established {
+                    lose(&mut self.st, now);
+                }
+                if self.st.state == SessionState::Reconnecting {
+                    recreate(&mut self.st, now);
+                }
+                return;
+            }
+            self.st.live.heard(now);
+            self.st.live.probe_answer = self.st.state == SessionState::Established
+                && self.st.ping != PingState::Pending
+                && first_info(msg, hs).is_some();
+            if self.st.state == SessionState::Reconnecting {
+                // The agent still holds the session: it goes on where it was, nothing to create again.
+                self.st.state = SessionState::Established;
+                self.st.live.push(SessionEvent::Restored { recreated: false });
+            }
         }
         let stream = header.stream_id;
         let index = usize::from(stream.index());
@@ -564,6 +698,9 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// write and every timeout. `out` should hold the MTU.
     pub fn poll_transmit(&mut self, now: i64, out: &mut [u8]) -> Option<usize> {
         let st = &mut self.st;
+        if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {
+            recreate(st, now);
+        }
         // Session creation and deletion.
         if let Some(retry) = st.session_retry.as_mut() {
             match (st.state, retry.due(now)) {
@@ -591,6 +728,12 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                     let header = st.header(StreamId::NONE);
                     return encode_single(out, &header, &Submessage::Delete(req), Endianness::Little).ok();
                 }
+                (SessionState::Creating, None) if st.live.recreating => {
+                    // The agent went again before answering: back to the attempts.
+                    st.session_retry = None;
+                    st.state = SessionState::Reconnecting;
+                    st.live.start_attempts(now);
+                }
                 (SessionState::Creating, None) => {
                     st.state = SessionState::CreateTimedOut;
                     st.session_retry = None;
@@ -603,10 +746,19 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 _ => st.session_retry = None,
             }
         }
+        if st.state == SessionState::Established && st.live.lost(now) {
+            lose(st, now);
+        }
+        if st.state == SessionState::Reconnecting {
+            return poll_reconnect(st, now, out);
+        }
         if st.state != SessionState::Established {
             return None;
         }
         let header = st.header(StreamId::NONE);
+        if st.live.probe_due(now) {
+            return encode_single(out, &header, &Submessage::GetInfo(liveness_probe()), Endianness::Little).ok();
+        }
         if let Some(request) = st.info_reply.take() {
             let info = Info {
                 reply: BaseObjectReply {
@@ -672,7 +824,12 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         for retry in [&st.session_retry, &st.ping_retry].into_iter().flatten() {
             next = next.min(retry.next);
         }
-        for stream in st.out_rel.iter().flatten() {
+        let established = st.state == SessionState::Established;
+        if let Some(t) = st.live.timeout(established, st.state == SessionState::Reconnecting) {
+            next = next.min(t);
+        }
+        // Streams only send in an established session; their timers wait meanwhile.
+        for stream in st.out_rel.iter().flatten().filter(|_| established) {
             next = next.min(stream.timeout().unwrap_or(i64::MAX));
         }
         (next != i64::MAX).then_some(next)
@@ -686,6 +843,64 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             || self.in_rel.iter().flatten().any(InputReliable::ack_pending)
             || st.out_rel.iter().flatten().any(OutputReliable::has_pending)
             || st.out_be.iter().flatten().any(|s| !s.is_empty())
+    }
+}
+
+/// The in-session GET_INFO probing the agent (our own request id: the answer only counts as "heard").
+const fn liveness_probe() -> GetInfo {
+    GetInfo {
+        request: BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT },
+        info_mask: info_mask::ACTIVITY,
+    }
+}
+
+/// The session is lost: report it and start reconnection attempts.
+fn lose<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
+    st.state = SessionState::Reconnecting;
+    st.ping_retry = None;
+    if st.ping == PingState::Pending {
+        st.ping = PingState::Failed;
+    }
+    st.live.start_attempts(now);
+    st.live.push(SessionEvent::Lost);
+}
+
+/// An agent answers but does not hold the session: create it again, same key and id.
+fn recreate<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
+    st.state = SessionState::Creating;
+    st.live.start_attempts(now);
+    st.live.recreating = true;
+    let period = i64::from(st.live.config.map_or(1000, |c| c.retry_max_ms.max(1))) * MILLIS;
+    st.session_retry = Some(Retry { attempts_left: 3, next: now, period });
+}
+
+/// While reconnecting: the two GET_INFO of an attempt (in the session, then outside it), and best-effort
+/// output dropped (nobody would receive it).
+fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
+    st: &mut State<'_, OBE, ORE, IBE>,
+    now: i64,
+    out: &mut [u8],
+) -> Option<usize> {
+    for (i, s) in st.out_be.iter_mut().enumerate() {
+        let Some(s) = s.as_mut() else { continue };
+        let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
+        while s.poll_transmit(st.session_id, st.key, stream, out).is_some() {}
+    }
+    if st.live.attempt_due(now) {
+        let header = st.header(StreamId::NONE);
+        return encode_single(out, &header, &Submessage::GetInfo(liveness_probe()), Endianness::Little).ok();
+    }
+    if core::mem::take(&mut st.live.second_ping_due) {
+        return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);
+    }
+    None
+}
+
+/// The implementation status of the INFO `msg` starts with, if it does.
+fn first_info(msg: &[u8], hs: usize) -> Option<u8> {
+    match Submessages::new(msg, hs).next()?.ok()?.decode().ok()? {
+        Submessage::Info(info) => Some(info.reply.result.implementation_status),
+        _ => None,
     }
 }
 
@@ -712,12 +927,24 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
         match sub {
             Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
                 st.session_retry = None;
+                let recreated = core::mem::take(&mut st.live.recreating);
                 if s.result.status == StatusCode::OK {
                     st.state = SessionState::Established;
+                    st.live.heard(now);
                     st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
-                    st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+                    if recreated {
+                        // The agent restarted its streams; what it did not acknowledge goes again, renumbered.
+                        st.out_rel.iter_mut().flatten().for_each(OutputReliable::rebase);
+                        st.live.push(SessionEvent::Restored { recreated: true });
+                    } else {
+                        st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+                    }
                     st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
                     in_rel.iter_mut().flatten().for_each(InputReliable::reset);
+                } else if recreated {
+                    // Refused for now (the agent is full, say): keep trying.
+                    st.state = SessionState::Reconnecting;
+                    st.live.start_attempts(now);
                 } else {
                     st.state = SessionState::Refused(s.result.status.0);
                 }

@@ -55,6 +55,8 @@ fn stamp_ms(now: Instant) -> u16 {
 /// A fragmented submessage being written.
 #[derive(Debug, Clone, Copy)]
 struct Chain {
+    /// Slot of the first FRAGMENT.
+    first: u16,
     /// Slot receiving bytes.
     seq: u16,
     /// Whether the FRAGMENT header of `seq` is written (it waits for the window otherwise).
@@ -172,6 +174,73 @@ impl<'a> OutputReliable<'a> {
         self.sender.reset();
         self.flush = false;
         self.chain = None;
+    }
+
+    /// Renumbers what is not acknowledged from sequence number 0, for a session the agent re-created (its
+    /// streams restart at 0): the slots rotate in place so the first unacknowledged message takes slot 0, and
+    /// every message counts as never sent. Nothing is lost and the order is kept; a fragmented write in progress
+    /// goes on where it was.
+    pub fn rebase(&mut self) {
+        let first = self.sender.last_acked().next().0;
+        let history = self.slots.history;
+        let shift = usize::from(first & (history - 1)) * self.slots.slot;
+        self.slots.buf.rotate_left(shift);
+        self.last_written = self.last_written.wrapping_sub(first);
+        if let Some(c) = self.chain.as_mut() {
+            c.first = c.first.wrapping_sub(first);
+            c.seq = c.seq.wrapping_sub(first);
+        }
+        for seq_nr in 0..history {
+            let flags = self.slots.flags(seq_nr);
+            self.slots.set_word(seq_nr, 2, flags & ENDS_WITH_FRAGMENT);
+        }
+        self.sender.reset();
+    }
+
+    /// Hands every message not acknowledged yet (written, sent or not) to `visit` in order, as its bytes after
+    /// the message header and whether it ends with a FRAGMENT, then resets the stream. With
+    /// [`restore_message`](Self::restore_message) this lets a caller put other messages in front of them. A
+    /// fragmented write in progress is abandoned with all its fragments (its later pushes take nothing).
+    pub fn take_messages(&mut self, mut visit: impl FnMut(&[u8], bool)) {
+        let hs = self.header_len();
+        let mut seq_nr = self.sender.last_acked().next().0;
+        loop {
+            let len = self.len_of(seq_nr);
+            if len == 0 || self.chain.is_some_and(|c| c.first == seq_nr) {
+                break;
+            }
+            let ends_with_fragment = self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0;
+            visit(self.slots.content(seq_nr).get(hs..len).unwrap_or(&[]), ends_with_fragment);
+            if seq_nr == self.last_written {
+                break;
+            }
+            seq_nr = seq_nr.wrapping_add(1);
+        }
+        self.reset();
+    }
+
+    /// Appends one whole message (its bytes after the header, as [`take_messages`](Self::take_messages) gave
+    /// them) in a slot of its own, marked for sending. [`Error::WouldBlock`] when the window has no free slot.
+    pub fn restore_message(&mut self, body: &[u8], ends_with_fragment: bool) -> Result<()> {
+        if self.chain.is_some() {
+            return Err(Error::Busy);
+        }
+        let hs = self.header_len();
+        if hs + body.len() > self.slot_capacity() {
+            return Err(Error::TooLarge);
+        }
+        let target = self.next_slot();
+        if !self.window_ok(target) {
+            return Err(Error::WouldBlock);
+        }
+        if let Some(dst) = self.content_mut(target).get_mut(hs..hs + body.len()) {
+            dst.copy_from_slice(body);
+        }
+        self.set_len(target, hs + body.len(), if ends_with_fragment { ENDS_WITH_FRAGMENT } else { 0 });
+        // Nothing is appended after a FRAGMENT; a plain message may take more submessages.
+        self.last_written = if ends_with_fragment { target.wrapping_add(1) } else { target };
+        self.flush = true;
+        Ok(())
     }
 
     /// Sets the floor of the interval between two retransmissions of one message (nanoseconds; default
@@ -337,7 +406,7 @@ impl<'a> OutputReliable<'a> {
             FragmentHead { last: false, chunk_len: 0 }.set_in(h);
         }
         self.set_len(first, at + SUBHEADER, ENDS_WITH_FRAGMENT);
-        self.chain = Some(Chain { seq: first, started: true, sub_at: at, remaining: total });
+        self.chain = Some(Chain { first, seq: first, started: true, sub_at: at, remaining: total });
     }
 
     /// Starts a continuous fragmented submessage of `inner_total` bytes whose first bytes are `head` (the inner

@@ -1,18 +1,29 @@
 //! Transports: the [`Transport`] trait the blocking session runs over, custom transports in both modes of
 //! eProsima's custom transport (packet-oriented, or stream-oriented with HDLC-like framing), and with the
-//! `std` feature UDP and TCP over IPv4/IPv6 and agent discovery.
+//! `std` feature UDP and TCP over IPv4/IPv6 and agent discovery, with `serial` (Unix) serial lines and with
+//! `can` (Linux) CAN FD.
 
 use core::fmt;
 
 use xrce_proto::framing::serial::{AddressFilter, Event, FrameBytes, FrameDecoder};
 
+#[cfg(all(feature = "can", target_os = "linux"))]
+pub mod can;
+#[cfg(all(feature = "can", target_os = "linux"))]
+mod can_bus;
 #[cfg(feature = "std")]
 pub mod discovery;
+#[cfg(all(feature = "serial", unix))]
+mod serial;
 #[cfg(feature = "std")]
 mod tcp;
 #[cfg(feature = "std")]
 mod udp;
 
+#[cfg(all(feature = "can", target_os = "linux"))]
+pub use can::{BusNode, CanSocket, CanTransport, MemoryBus, SocketCan};
+#[cfg(all(feature = "serial", unix))]
+pub use serial::{SerialSettings, SerialTransport, SERIAL_MTU};
 #[cfg(feature = "std")]
 pub use tcp::TcpTransport;
 #[cfg(feature = "std")]

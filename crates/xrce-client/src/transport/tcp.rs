@@ -13,6 +13,7 @@ use crate::session::DEFAULT_MTU;
 /// A TCP connection to one agent.
 #[derive(Debug)]
 pub struct TcpTransport {
+    agent: SocketAddr,
     stream: TcpStream,
     decoder: TcpDecoder<[u8; DEFAULT_MTU]>,
     chunk: [u8; 256],
@@ -28,13 +29,34 @@ impl TcpTransport {
 
     /// Connects to the agent at `agent`.
     pub fn connect(agent: SocketAddr) -> Result<Self, TransportError> {
-        let stream = TcpStream::connect(agent)?;
+        Ok(Self {
+            agent,
+            stream: Self::stream(agent)?,
+            decoder: TcpDecoder::new([0; DEFAULT_MTU]),
+            chunk: [0; 256],
+            pos: 0,
+            len: 0,
+        })
+    }
+
+    fn stream(agent: SocketAddr) -> Result<TcpStream, TransportError> {
+        let stream = TcpStream::connect_timeout(&agent, std::time::Duration::from_secs(1))?;
         stream.set_nodelay(true)?;
-        Ok(Self { stream, decoder: TcpDecoder::new([0; DEFAULT_MTU]), chunk: [0; 256], pos: 0, len: 0 })
+        Ok(stream)
     }
 }
 
 impl Transport for TcpTransport {
+    /// Connects again (the session's reconnection calls it after the connection failed); what was half read
+    /// is dropped.
+    fn open(&mut self) -> Result<(), TransportError> {
+        self.stream = Self::stream(self.agent)?;
+        self.decoder = TcpDecoder::new([0; DEFAULT_MTU]);
+        self.pos = 0;
+        self.len = 0;
+        Ok(())
+    }
+
     fn close(&mut self) -> Result<(), TransportError> {
         self.stream.shutdown(std::net::Shutdown::Both)?;
         Ok(())

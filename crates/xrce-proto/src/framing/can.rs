@@ -35,6 +35,11 @@ pub enum CanError {
     },
     /// A received frame has no data at all, not even the length byte.
     EmptyFrame,
+    /// An identifier does not fit 29 bits.
+    IdTooLarge {
+        /// The rejected identifier.
+        id: u32,
+    },
     /// A received frame's length byte announces more than the frame carries.
     BadLength {
         /// Length announced by `data[0]`.
@@ -52,6 +57,7 @@ impl fmt::Display for CanError {
             }
             Self::BufferTooSmall { needed } => write!(f, "output buffer too small: CAN FD frame needs {needed} bytes"),
             Self::EmptyFrame => f.write_str("CAN FD frame without a length byte"),
+            Self::IdTooLarge { id } => write!(f, "CAN identifier {id:#x} does not fit 29 bits"),
             Self::BadLength { declared, available } => {
                 write!(f, "CAN FD frame announces a {declared}-byte message but carries {available} bytes")
             }
@@ -104,6 +110,75 @@ pub fn decode(data: &[u8]) -> Result<&[u8], CanError> {
     rest.get(..usize::from(declared))
         .filter(|msg| msg.len() <= MAX_MESSAGE_LEN)
         .ok_or(CanError::BadLength { declared, available })
+}
+
+/// One frame as the CAN transports move it between their sockets and the framing: the SocketCAN `can_id` word
+/// (identifier and flags) and the data field. Plain data, so in-memory buses and tests need no SocketCAN.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Frame {
+    /// SocketCAN identifier word: for XRCE traffic the 29-bit identifier with [`EFF_FLAG`] set.
+    pub can_id: u32,
+    /// Data length as sent or received, `0..=64`; bytes of `data` past it are padding.
+    pub len: u8,
+    /// The data field.
+    pub data: [u8; MAX_FRAME_LEN],
+}
+
+impl Frame {
+    /// The frame carrying `msg` under the 29-bit identifier `id` (EFF flag set), of length `msg.len() + 1`;
+    /// the stack pads it to a valid CAN FD length.
+    ///
+    /// # Errors
+    /// [`CanError::IdTooLarge`] if `id` does not fit 29 bits, [`CanError::MessageTooLarge`] above
+    /// [`MAX_MESSAGE_LEN`].
+    pub fn with_message(id: u32, msg: &[u8]) -> Result<Self, CanError> {
+        let can_id = extended_id(id).ok_or(CanError::IdTooLarge { id })?;
+        let mut data = [0u8; MAX_FRAME_LEN];
+        let len = encode(msg, &mut data)?;
+        // `encode` returns at most 64.
+        Ok(Self { can_id, len: u8::try_from(len).unwrap_or(u8::MAX), data })
+    }
+
+    /// A frame from a received `can_id` word and data bytes (at most 64 are kept).
+    #[must_use]
+    pub fn from_parts(can_id: u32, bytes: &[u8]) -> Self {
+        let mut data = [0u8; MAX_FRAME_LEN];
+        for (slot, byte) in data.iter_mut().zip(bytes) {
+            *slot = *byte;
+        }
+        let len = bytes.len().min(MAX_FRAME_LEN);
+        Self { can_id, len: u8::try_from(len).unwrap_or(u8::MAX), data }
+    }
+
+    /// The data bytes the frame carries (`len` of them, at most 64).
+    #[must_use]
+    pub fn bytes(&self) -> &[u8] {
+        self.data.get(..usize::from(self.len)).unwrap_or(&self.data)
+    }
+
+    /// The 29-bit identifier, or `None` for a standard (11-bit) frame, which carries no XRCE traffic.
+    #[must_use]
+    pub const fn id(&self) -> Option<u32> {
+        raw_id(self.can_id)
+    }
+
+    /// The XRCE message of the frame: `data[0]` bytes after the length byte, read from the whole data
+    /// field as eProsima's client and agent read it, whatever the frame length says. eProsima's agent sends
+    /// frames one byte short (length = message length), so their last byte travels only as padding: intact
+    /// on `vcan`, which moves the whole 64-byte field, and on a controller whenever rounding up to a DLC
+    /// length covers it; a strict reader would refuse those frames. Bytes past what the sender wrote are
+    /// zero (our frames, the stack's padding), so a short frame yields at worst a corrupt message, which the
+    /// XRCE decoding rejects.
+    ///
+    /// # Errors
+    /// [`CanError::BadLength`] if `data[0]` exceeds [`MAX_MESSAGE_LEN`]; [`CanError::EmptyFrame`] if the
+    /// frame has no data.
+    pub fn message(&self) -> Result<&[u8], CanError> {
+        if self.len == 0 {
+            return Err(CanError::EmptyFrame);
+        }
+        decode(&self.data)
+    }
 }
 
 /// The smallest valid CAN FD data length holding `len` bytes, or `None` above 64.
@@ -265,6 +340,41 @@ mod tests {
     }
 
     #[test]
+    fn frame_of_the_create_client_vector() {
+        // Spec §17.13: extended id = client id | EFF, data = 0x18 + the 24 bytes, length 25.
+        let frame = Frame::with_message(0x0000_0123, &CREATE_CLIENT).unwrap();
+        assert_eq!(frame.can_id, 0x8000_0123);
+        assert_eq!(frame.len, 25);
+        assert_eq!(frame.bytes()[0], 0x18);
+        assert_eq!(&frame.bytes()[1..], &CREATE_CLIENT);
+        assert_eq!(frame.id(), Some(0x123));
+        assert_eq!(frame.message(), Ok(&CREATE_CLIENT[..]));
+        assert_eq!(Frame::from_parts(frame.can_id, frame.bytes()), frame);
+        assert_eq!(Frame::with_message(0x2000_0000, &CREATE_CLIENT), Err(CanError::IdTooLarge { id: 0x2000_0000 }));
+        assert_eq!(Frame::with_message(1, &[0; 64]), Err(CanError::MessageTooLarge { len: 64 }));
+    }
+
+    #[test]
+    fn frame_message_reads_the_whole_field() {
+        // eProsima's agent: frame length = message length, the last byte in the padding.
+        let mut short = Frame::with_message(7, &CREATE_CLIENT).unwrap();
+        short.len = 24;
+        assert_eq!(short.message(), Ok(&CREATE_CLIENT[..]));
+        let standard = Frame::from_parts(0x123, &[1, 0xAA]);
+        assert_eq!(standard.id(), None);
+        assert_eq!(standard.message(), Ok(&[0xAA][..]));
+        assert_eq!(Frame::from_parts(0x8000_0001, &[]).message(), Err(CanError::EmptyFrame));
+        let mut bad = [0u8; 64];
+        bad[0] = 64;
+        assert_eq!(
+            Frame::from_parts(0x8000_0001, &bad).message(),
+            Err(CanError::BadLength { declared: 64, available: 63 })
+        );
+        // More than 64 bytes: the rest is cut.
+        assert_eq!(Frame::from_parts(0x8000_0001, &[5u8; 80]).len, 64);
+    }
+
+    #[test]
     fn display_is_nonempty() {
         use core::fmt::Write;
         struct Len(usize);
@@ -278,6 +388,7 @@ mod tests {
             CanError::MessageTooLarge { len: 64 },
             CanError::BufferTooSmall { needed: 5 },
             CanError::EmptyFrame,
+            CanError::IdTooLarge { id: 0x2000_0000 },
             CanError::BadLength { declared: 3, available: 2 },
         ] {
             let mut l = Len(0);
