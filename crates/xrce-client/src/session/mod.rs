@@ -867,6 +867,12 @@ fn lose<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_,
 
 /// An agent answers but does not hold the session: create it again, same key and id.
 fn recreate<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
+    #[cfg(feature = "psk")]
+    if let Some((_, nonce)) = st.psk.as_mut() {
+        // A fresh token: an agent that still remembers the last one (it dropped the session but did not
+        // restart) refuses a replay.
+        *nonce = nonce.wrapping_add(1);
+    }
     st.state = SessionState::Creating;
     st.live.start_attempts(now);
     st.live.recreating = true;
