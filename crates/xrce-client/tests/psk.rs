@@ -1,13 +1,9 @@
 //! The pre-shared-key token in CREATE_CLIENT (`SessionCore::set_pre_shared_key`), as our agent checks it.
+#![cfg(feature = "psk")]
 
-use xrce_client::session::{Reconnect, SessionCore};
+use xrce_client::session::SessionCore;
 use xrce_proto::auth::{verify, AUTH_PROPERTY};
-use xrce_proto::object::AgentRepresentation;
-use xrce_proto::submessage::{Info, StatusAgent};
-use xrce_proto::{
-    message, BaseObjectReply, BaseObjectRequest, ClientKey, Endianness, MessageHeader, ResultStatus, StatusCode,
-    StreamId, Submessage,
-};
+use xrce_proto::{message, ClientKey, Submessage};
 
 /// The `xrce_rs_auth` and `xrce_rs_pack` properties of the next CREATE_CLIENT, as owned strings.
 fn create_client_properties(core: &mut SessionCore<'_>, now: i64) -> (Option<String>, Option<String>) {
@@ -44,40 +40,52 @@ fn create_client_carries_a_token_the_agent_verifies_and_each_session_a_new_nonce
     assert_eq!(verify(PSK, key, 0x01, &next), Ok(42));
 }
 
-fn agent_says(core: &mut SessionCore<'_>, sub: &Submessage<'_>, now: i64) {
-    let header = MessageHeader::new(0x01, StreamId::NONE, 0, ClientKey::from_u32(0xAABB_CCDD));
-    let mut buf = [0u8; 128];
-    let n = message::encode_single(&mut buf, &header, sub, Endianness::Little).expect("encode");
-    core.handle_input(&buf[..n], now, &mut ());
-}
-
-#[test]
-fn a_session_recreated_after_a_loss_carries_a_fresh_token() {
-    const PSK: &[u8] = b"0123456789abcdef0123456789abcdef";
-    const MS: i64 = 1_000_000;
-    let key = ClientKey::from_u32(0xAABB_CCDD);
-    let mut core: SessionCore<'_> = SessionCore::new(0x01, 0xAABB_CCDD, 512);
-    core.set_reconnect(Some(Reconnect::default()));
-    core.set_pre_shared_key(PSK, 7);
-    core.create_session(0);
-    let first = create_client_properties(&mut core, 0).0.expect("token");
-    assert_eq!(verify(PSK, key, 0x01, &first), Ok(7));
-    let ok = StatusAgent { result: ResultStatus::new(StatusCode::OK), agent: AgentRepresentation::EPROSIMA };
-    agent_says(&mut core, &Submessage::StatusAgent(ok), MS);
-    // The agent dropped the session (a ghost timeout, say) without restarting: it answers a probe with "not
-    // known", the client creates the session again, and a replay of its old token would be refused.
-    core.reconnect(2 * MS);
-    let mut buf = [0u8; 512];
-    while core.poll_transmit(3 * MS, &mut buf).is_some() {}
-    let unknown = Info {
-        reply: BaseObjectReply {
-            related_request: BaseObjectRequest::default(),
-            result: ResultStatus { status: StatusCode::OK, implementation_status: 0 },
-        },
-        config: None,
-        activity: None,
+/// Reconnection (the `reconnect` feature, on with `std`) re-creates the session with a fresh token.
+#[cfg(feature = "reconnect")]
+mod reconnect {
+    use super::*;
+    use xrce_client::session::Reconnect;
+    use xrce_proto::object::AgentRepresentation;
+    use xrce_proto::submessage::{Info, StatusAgent};
+    use xrce_proto::{
+        BaseObjectReply, BaseObjectRequest, Endianness, MessageHeader, ResultStatus, StatusCode, StreamId,
     };
-    agent_says(&mut core, &Submessage::Info(unknown), 4 * MS);
-    let again = create_client_properties(&mut core, 5 * MS).0.expect("a new CREATE_CLIENT with a token");
-    assert_eq!(verify(PSK, key, 0x01, &again), Ok(8));
+
+    fn agent_says(core: &mut SessionCore<'_>, sub: &Submessage<'_>, now: i64) {
+        let header = MessageHeader::new(0x01, StreamId::NONE, 0, ClientKey::from_u32(0xAABB_CCDD));
+        let mut buf = [0u8; 128];
+        let n = message::encode_single(&mut buf, &header, sub, Endianness::Little).expect("encode");
+        core.handle_input(&buf[..n], now, &mut ());
+    }
+
+    #[test]
+    fn a_session_recreated_after_a_loss_carries_a_fresh_token() {
+        const PSK: &[u8] = b"0123456789abcdef0123456789abcdef";
+        const MS: i64 = 1_000_000;
+        let key = ClientKey::from_u32(0xAABB_CCDD);
+        let mut core: SessionCore<'_> = SessionCore::new(0x01, 0xAABB_CCDD, 512);
+        core.set_reconnect(Some(Reconnect::default()));
+        core.set_pre_shared_key(PSK, 7);
+        core.create_session(0);
+        let first = create_client_properties(&mut core, 0).0.expect("token");
+        assert_eq!(verify(PSK, key, 0x01, &first), Ok(7));
+        let ok = StatusAgent { result: ResultStatus::new(StatusCode::OK), agent: AgentRepresentation::EPROSIMA };
+        agent_says(&mut core, &Submessage::StatusAgent(ok), MS);
+        // The agent dropped the session (a ghost timeout, say) without restarting: it answers a probe with "not
+        // known", the client creates the session again, and a replay of its old token would be refused.
+        core.reconnect(2 * MS);
+        let mut buf = [0u8; 512];
+        while core.poll_transmit(3 * MS, &mut buf).is_some() {}
+        let unknown = Info {
+            reply: BaseObjectReply {
+                related_request: BaseObjectRequest::default(),
+                result: ResultStatus { status: StatusCode::OK, implementation_status: 0 },
+            },
+            config: None,
+            activity: None,
+        };
+        agent_says(&mut core, &Submessage::Info(unknown), 4 * MS);
+        let again = create_client_properties(&mut core, 5 * MS).0.expect("a new CREATE_CLIENT with a token");
+        assert_eq!(verify(PSK, key, 0x01, &again), Ok(8));
+    }
 }

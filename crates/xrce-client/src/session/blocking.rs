@@ -58,10 +58,12 @@ struct Io<T, K, const MTU: usize> {
     clock: K,
     buf: [u8; MTU],
     /// The transport failed while reconnection is on: when to reopen it next ([`WORKING`] when it works).
+    #[cfg(feature = "reconnect")]
     reopen_at: i64,
     /// The wait before the next reopening, in milliseconds; it grows with every failure until the session is
     /// back (0: no failure since), so a transport that fails right after each reopening (UDP to a dead port:
     /// every send meets the ICMP error of the previous one) is not reopened and retried in a tight loop.
+    #[cfg(feature = "reconnect")]
     reopen_ms: u16,
     /// Entities and reads to create again after a re-creation (boxed: the session stays small on the stack).
     #[cfg(feature = "std")]
@@ -74,7 +76,9 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             transport,
             clock,
             buf: [0; MTU],
+            #[cfg(feature = "reconnect")]
             reopen_at: WORKING,
+            #[cfg(feature = "reconnect")]
             reopen_ms: 0,
             #[cfg(feature = "std")]
             replay: Box::default(),
@@ -102,6 +106,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
 
     /// A transport error: with reconnection on and a session to keep, the session counts as lost and the
     /// transport is reopened until it works; otherwise the error goes to the caller.
+    #[cfg(feature = "reconnect")]
     fn failed<const A: usize, const B: usize, const C: usize, const D: usize>(
         &mut self,
         core: &mut SessionCore<'_, A, B, C, D>,
@@ -124,7 +129,19 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         Ok(())
     }
 
+    /// Without reconnection a transport error goes to the caller.
+    #[cfg(not(feature = "reconnect"))]
+    #[allow(clippy::unused_self)]
+    fn failed<const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        _core: &mut SessionCore<'_, A, B, C, D>,
+        e: TransportError,
+    ) -> Result<()> {
+        Err(e.into())
+    }
+
     /// Reopens a failed transport when it is time.
+    #[cfg(feature = "reconnect")]
     fn reopen<const A: usize, const B: usize, const C: usize, const D: usize>(
         &mut self,
         core: &mut SessionCore<'_, A, B, C, D>,
@@ -145,8 +162,35 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         }
     }
 
+    #[cfg(not(feature = "reconnect"))]
+    #[allow(clippy::unused_self)]
+    fn reopen<const A: usize, const B: usize, const C: usize, const D: usize>(
+        &mut self,
+        _core: &mut SessionCore<'_, A, B, C, D>,
+    ) {
+    }
+
+    #[cfg(feature = "reconnect")]
     const fn broken(&self) -> bool {
         self.reopen_at != WORKING
+    }
+
+    #[cfg(not(feature = "reconnect"))]
+    #[allow(clippy::unused_self)]
+    const fn broken(&self) -> bool {
+        false
+    }
+
+    /// How long until the failed transport is reopened, if it failed.
+    #[cfg(feature = "reconnect")]
+    fn until_reopen(&self, now: i64) -> Option<i64> {
+        self.broken().then(|| (self.reopen_at - now).max(0))
+    }
+
+    #[cfg(not(feature = "reconnect"))]
+    #[allow(clippy::unused_self)]
+    const fn until_reopen(&self, _now: i64) -> Option<i64> {
+        None
     }
 
     /// Reports what happened to the session and, after a re-creation, writes the entities, reads and
@@ -160,7 +204,10 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             match event {
                 SessionEvent::Lost => h.on_session_lost(),
                 SessionEvent::Restored { recreated } => {
-                    self.reopen_ms = 0;
+                    #[cfg(feature = "reconnect")]
+                    {
+                        self.reopen_ms = 0;
+                    }
                     #[cfg(feature = "std")]
                     if recreated {
                         self.start_replay(core);
@@ -240,8 +287,13 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             let now = self.clock.now_nanos();
             let until_deadline = deadline.map(|d| (d - now).max(0));
             let until_timer = core.poll_timeout().map(|t| (t - now).max(0));
-            let until_reopen = self.broken().then(|| (self.reopen_at - now).max(0));
-            let wait = [until_deadline, until_timer, until_reopen].into_iter().flatten().min();
+            let mut wait = match (until_deadline, until_timer) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            };
+            if let Some(reopen) = self.until_reopen(now) {
+                wait = Some(wait.map_or(reopen, |w| w.min(reopen)));
+            }
             let wait_ms = wait.map_or(-1, |ns| i32::try_from((ns + MILLIS - 1) / MILLIS).unwrap_or(i32::MAX));
             if self.broken() {
                 // Nothing to read from a failed transport: wait for the next reopen or timer.
@@ -276,6 +328,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
 }
 
 /// `reopen_at` of a transport that works.
+#[cfg(feature = "reconnect")]
 const WORKING: i64 = i64::MIN;
 
 /// Sleeps while the transport is down (without `std` there is no way to sleep: the loop polls the clock).

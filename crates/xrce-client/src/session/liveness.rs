@@ -32,6 +32,7 @@ impl Default for Reconnect {
 }
 
 impl Reconnect {
+    #[cfg(feature = "reconnect")]
     const fn ns(ms: u16) -> i64 {
         ms as i64 * MILLIS
     }
@@ -51,6 +52,7 @@ pub enum SessionEvent {
     },
 }
 
+#[cfg(feature = "reconnect")]
 impl SessionEvent {
     const fn code(self) -> u8 {
         match self {
@@ -71,17 +73,21 @@ impl SessionEvent {
 }
 
 /// Events not polled yet, oldest first (as codes, 0 = none); the oldest is dropped when full.
+#[cfg(feature = "reconnect")]
 const EVENTS: usize = 4;
 
 /// "No probe unanswered", "no agent seen".
+#[cfg(feature = "reconnect")]
 const NONE: i64 = i64::MIN;
 
 /// How long an in-session answer may follow an out-of-session one.
+#[cfg(feature = "reconnect")]
 const GRACE: i64 = 200 * MILLIS;
 
+#[cfg(feature = "reconnect")]
 #[derive(Debug)]
 pub(super) struct Liveness {
-    pub(super) config: Option<Reconnect>,
+    config: Option<Reconnect>,
     /// Established: when the next probe is due. Reconnecting: when the next attempt is.
     due: i64,
     /// Established: send time of the oldest unanswered probe. Reconnecting: when an agent answered outside the
@@ -92,17 +98,19 @@ pub(super) struct Liveness {
     /// Wait after the next attempt, in milliseconds.
     retry_ms: u16,
     /// The out-of-session GET_INFO of the current attempt is still to be sent.
-    pub(super) second_ping_due: bool,
+    second_ping_due: bool,
     /// A CREATE_CLIENT is under way as part of a reconnection.
-    pub(super) recreating: bool,
+    recreating: bool,
     /// The last input was only the answer to a probe: the blocking loop does not count it as a message (else
     /// `run_session_time`, which waits for a silence, would never end while probes are answered).
-    pub(super) probe_answer: bool,
+    probe_answer: bool,
     events: [u8; EVENTS],
 }
 
+#[cfg(feature = "reconnect")]
 const MILLIS: i64 = super::MILLIS;
 
+#[cfg(feature = "reconnect")]
 impl Liveness {
     pub(super) const fn new() -> Self {
         Self {
@@ -115,6 +123,31 @@ impl Liveness {
             probe_answer: false,
             events: [0; EVENTS],
         }
+    }
+
+    pub(super) const fn config(&self) -> Option<Reconnect> {
+        self.config
+    }
+    pub(super) fn set_config(&mut self, config: Option<Reconnect>) {
+        self.config = config;
+    }
+    pub(super) const fn recreating(&self) -> bool {
+        self.recreating
+    }
+    pub(super) fn set_recreating(&mut self, on: bool) {
+        self.recreating = on;
+    }
+    pub(super) fn take_recreating(&mut self) -> bool {
+        core::mem::take(&mut self.recreating)
+    }
+    pub(super) const fn probe_answer(&self) -> bool {
+        self.probe_answer
+    }
+    pub(super) fn set_probe_answer(&mut self, on: bool) {
+        self.probe_answer = on;
+    }
+    pub(super) fn take_second_ping(&mut self) -> bool {
+        core::mem::take(&mut self.second_ping_due)
     }
 
     /// Something came from the agent for this session.
@@ -209,5 +242,59 @@ impl Liveness {
         let first = core::mem::take(self.events.first_mut()?);
         self.events.rotate_left(1);
         SessionEvent::from_code(first)
+    }
+}
+
+/// Without the `reconnect` feature (the footprint build): nothing is kept and nothing is ever due, so the
+/// reconnection paths of the session fold away and the session core stays as small as before.
+#[cfg(not(feature = "reconnect"))]
+#[derive(Debug)]
+pub(super) struct Liveness;
+
+#[cfg(not(feature = "reconnect"))]
+#[allow(clippy::unused_self)]
+impl Liveness {
+    pub(super) const fn new() -> Self {
+        Self
+    }
+    pub(super) const fn config(&self) -> Option<Reconnect> {
+        None
+    }
+    pub(super) fn set_config(&mut self, _config: Option<Reconnect>) {}
+    pub(super) const fn recreating(&self) -> bool {
+        false
+    }
+    pub(super) fn set_recreating(&mut self, _on: bool) {}
+    pub(super) fn take_recreating(&mut self) -> bool {
+        false
+    }
+    pub(super) const fn probe_answer(&self) -> bool {
+        false
+    }
+    pub(super) fn set_probe_answer(&mut self, _on: bool) {}
+    pub(super) fn take_second_ping(&mut self) -> bool {
+        false
+    }
+    pub(super) fn heard(&mut self, _now: i64) {}
+    pub(super) fn lost(&self, _now: i64) -> bool {
+        false
+    }
+    pub(super) fn probe_due(&mut self, _now: i64) -> bool {
+        false
+    }
+    pub(super) fn start_attempts(&mut self, _now: i64) {}
+    pub(super) fn agent_seen(&mut self, _now: i64) {}
+    pub(super) fn recreate_due(&self, _now: i64) -> bool {
+        false
+    }
+    pub(super) fn attempt_due(&mut self, _now: i64) -> bool {
+        false
+    }
+    pub(super) fn timeout(&self, _established: bool, _reconnecting: bool) -> Option<i64> {
+        None
+    }
+    pub(super) fn push(&mut self, _event: SessionEvent) {}
+    pub(super) fn pop(&mut self) -> Option<SessionEvent> {
+        None
     }
 }

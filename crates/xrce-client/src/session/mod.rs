@@ -468,7 +468,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             *nonce = nonce.wrapping_add(1);
         }
         self.reset_streams();
-        self.st.live.recreating = false;
+        self.st.live.set_recreating(false);
         self.st.state = SessionState::Creating;
         self.st.session_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
@@ -492,19 +492,19 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// [`Session`] turns it on). See [`Reconnect`] for what it does and [`poll_event`](Self::poll_event) for
     /// what it reports.
     pub fn set_reconnect(&mut self, config: Option<Reconnect>) {
-        self.st.live.config = config;
+        self.st.live.set_config(config);
     }
 
     /// The reconnection settings, `None` when off.
     pub const fn reconnect_config(&self) -> Option<Reconnect> {
-        self.st.live.config
+        self.st.live.config()
     }
 
     /// Counts the session as lost now (a transport error, say) and starts reconnection attempts; while already
     /// reconnecting, makes the next attempt now (the transport just came back, say). Does nothing otherwise, or
     /// with reconnection off.
     pub fn reconnect(&mut self, now: i64) {
-        if self.st.live.config.is_none() {
+        if self.st.live.config().is_none() {
             return;
         }
         match self.st.state {
@@ -517,12 +517,12 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// Whether the session is lost and being brought back (attempts, or its re-creation under way).
     pub const fn is_reconnecting(&self) -> bool {
         matches!(self.st.state, SessionState::Reconnecting)
-            || (matches!(self.st.state, SessionState::Creating) && self.st.live.recreating)
+            || (matches!(self.st.state, SessionState::Creating) && self.st.live.recreating())
     }
 
     /// Whether the last input was only an agent's answer to a liveness probe (nothing for the application).
     pub const fn last_input_was_probe_answer(&self) -> bool {
-        self.st.live.probe_answer
+        self.st.live.probe_answer()
     }
 
     /// The next thing that happened to the session ([`SessionEvent::Lost`], [`SessionEvent::Restored`]).
@@ -536,6 +536,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// re-creation ([`SessionEvent::Restored`] with `recreated`) they are already renumbered from 0 and would go
     /// out as they are; taking them out lets the caller send the entity creations first, then give them back
     /// with [`restore_reliable_output`](Self::restore_reliable_output).
+    #[cfg(feature = "reconnect")]
     pub fn take_reliable_output(&mut self, stream: StreamId, visit: impl FnMut(&[u8], bool)) -> Result<()> {
         match (stream.kind(), self.st.out_rel.get_mut(usize::from(stream.index()))) {
             (StreamKind::Reliable, Some(Some(s))) => {
@@ -548,6 +549,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// Appends a message taken by [`take_reliable_output`](Self::take_reliable_output) to reliable output
     /// stream `stream`; [`Error::WouldBlock`] while its history is full.
+    #[cfg(feature = "reconnect")]
     pub fn restore_reliable_output(&mut self, stream: StreamId, body: &[u8], ends_with_fragment: bool) -> Result<()> {
         match (stream.kind(), self.st.out_rel.get_mut(usize::from(stream.index()))) {
             (StreamKind::Reliable, Some(Some(s))) => s.restore_message(body, ends_with_fragment),
@@ -556,6 +558,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     }
 
     /// The ids of the reliable output streams created.
+    #[cfg(feature = "reconnect")]
     pub fn reliable_output_streams(&self) -> impl Iterator<Item = StreamId> + '_ {
         self.st
             .out_rel
@@ -610,9 +613,9 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// Processes one received message, calling `cb` for what it carries.
     pub fn handle_input<C: Callbacks + ?Sized>(&mut self, msg: &[u8], now: i64, cb: &mut C) {
-        self.st.live.probe_answer = false;
+        self.st.live.set_probe_answer(false);
         let Ok((header, hs)) = MessageHeader::decode(msg) else { return };
-        if header.session_id & 0x7F == 0 && self.st.state == SessionState::Reconnecting {
+        if RECONNECT && header.session_id & 0x7F == 0 && self.st.state == SessionState::Reconnecting {
             // An answer outside the session: an agent is there; unless it answers in the session too, it lost us.
             if first_info(msg, hs).is_some() {
                 self.st.live.agent_seen(now);
@@ -622,7 +625,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if header.session_id != self.st.session_id || header.client_key.is_some_and(|k| k != self.st.key) {
             return;
         }
-        if self.st.live.config.is_some() {
+        if self.st.live.config().is_some() {
             if first_info(msg, hs) == Some(0) {
                 // The agent answers our probe but does not know the session: it restarted, or dropped us.
                 if self.st.state == SessionState::Established {
@@ -634,9 +637,10 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 return;
             }
             self.st.live.heard(now);
-            self.st.live.probe_answer = self.st.state == SessionState::Established
+            let answer = self.st.state == SessionState::Established
                 && self.st.ping != PingState::Pending
                 && first_info(msg, hs).is_some();
+            self.st.live.set_probe_answer(answer);
             if self.st.state == SessionState::Reconnecting {
                 // The agent still holds the session: it goes on where it was, nothing to create again.
                 self.st.state = SessionState::Established;
@@ -728,7 +732,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                     let header = st.header(StreamId::NONE);
                     return encode_single(out, &header, &Submessage::Delete(req), Endianness::Little).ok();
                 }
-                (SessionState::Creating, None) if st.live.recreating => {
+                (SessionState::Creating, None) if st.live.recreating() => {
                     // The agent went again before answering: back to the attempts.
                     st.session_retry = None;
                     st.state = SessionState::Reconnecting;
@@ -749,7 +753,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if st.state == SessionState::Established && st.live.lost(now) {
             lose(st, now);
         }
-        if st.state == SessionState::Reconnecting {
+        if RECONNECT && st.state == SessionState::Reconnecting {
             return poll_reconnect(st, now, out);
         }
         if st.state != SessionState::Established {
@@ -846,6 +850,10 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     }
 }
 
+/// Whether reconnection is built in (feature `reconnect`): without it, the branches that only a lost
+/// session takes are removed at compile time, so the footprint build carries none of them.
+pub(crate) const RECONNECT: bool = cfg!(feature = "reconnect");
+
 /// The in-session GET_INFO probing the agent (our own request id: the answer only counts as "heard").
 const fn liveness_probe() -> GetInfo {
     GetInfo {
@@ -875,8 +883,8 @@ fn recreate<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State
     }
     st.state = SessionState::Creating;
     st.live.start_attempts(now);
-    st.live.recreating = true;
-    let period = i64::from(st.live.config.map_or(1000, |c| c.retry_max_ms.max(1))) * MILLIS;
+    st.live.set_recreating(true);
+    let period = i64::from(st.live.config().map_or(1000, |c| c.retry_max_ms.max(1))) * MILLIS;
     st.session_retry = Some(Retry { attempts_left: 3, next: now, period });
 }
 
@@ -896,7 +904,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
         let header = st.header(StreamId::NONE);
         return encode_single(out, &header, &Submessage::GetInfo(liveness_probe()), Endianness::Little).ok();
     }
-    if core::mem::take(&mut st.live.second_ping_due) {
+    if st.live.take_second_ping() {
         return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);
     }
     None
@@ -933,12 +941,12 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
         match sub {
             Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
                 st.session_retry = None;
-                let recreated = core::mem::take(&mut st.live.recreating);
+                let recreated = st.live.take_recreating();
                 if s.result.status == StatusCode::OK {
                     st.state = SessionState::Established;
                     st.live.heard(now);
                     st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
-                    if recreated {
+                    if RECONNECT && recreated {
                         // The agent restarted its streams; what it did not acknowledge goes again, renumbered.
                         st.out_rel.iter_mut().flatten().for_each(OutputReliable::rebase);
                         st.live.push(SessionEvent::Restored { recreated: true });
@@ -947,7 +955,7 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                     }
                     st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
                     in_rel.iter_mut().flatten().for_each(InputReliable::reset);
-                } else if recreated {
+                } else if RECONNECT && recreated {
                     // Refused for now (the agent is full, say): keep trying.
                     st.state = SessionState::Reconnecting;
                     st.live.start_attempts(now);

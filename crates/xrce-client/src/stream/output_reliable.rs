@@ -55,7 +55,8 @@ fn stamp_ms(now: Instant) -> u16 {
 /// A fragmented submessage being written.
 #[derive(Debug, Clone, Copy)]
 struct Chain {
-    /// Slot of the first FRAGMENT.
+    /// Slot of the first FRAGMENT (for reconnection's take-out of unacknowledged messages).
+    #[cfg(feature = "reconnect")]
     first: u16,
     /// Slot receiving bytes.
     seq: u16,
@@ -187,7 +188,10 @@ impl<'a> OutputReliable<'a> {
         self.slots.buf.rotate_left(shift);
         self.last_written = self.last_written.wrapping_sub(first);
         if let Some(c) = self.chain.as_mut() {
-            c.first = c.first.wrapping_sub(first);
+            #[cfg(feature = "reconnect")]
+            {
+                c.first = c.first.wrapping_sub(first);
+            }
             c.seq = c.seq.wrapping_sub(first);
         }
         for seq_nr in 0..history {
@@ -201,6 +205,7 @@ impl<'a> OutputReliable<'a> {
     /// the message header and whether it ends with a FRAGMENT, then resets the stream. With
     /// [`restore_message`](Self::restore_message) this lets a caller put other messages in front of them. A
     /// fragmented write in progress is abandoned with all its fragments (its later pushes take nothing).
+    #[cfg(feature = "reconnect")]
     pub fn take_messages(&mut self, mut visit: impl FnMut(&[u8], bool)) {
         let hs = self.header_len();
         let mut seq_nr = self.sender.last_acked().next().0;
@@ -221,6 +226,7 @@ impl<'a> OutputReliable<'a> {
 
     /// Appends one whole message (its bytes after the header, as [`take_messages`](Self::take_messages) gave
     /// them) in a slot of its own, marked for sending. [`Error::WouldBlock`] when the window has no free slot.
+    #[cfg(feature = "reconnect")]
     pub fn restore_message(&mut self, body: &[u8], ends_with_fragment: bool) -> Result<()> {
         if self.chain.is_some() {
             return Err(Error::Busy);
@@ -406,7 +412,14 @@ impl<'a> OutputReliable<'a> {
             FragmentHead { last: false, chunk_len: 0 }.set_in(h);
         }
         self.set_len(first, at + SUBHEADER, ENDS_WITH_FRAGMENT);
-        self.chain = Some(Chain { first, seq: first, started: true, sub_at: at, remaining: total });
+        self.chain = Some(Chain {
+            #[cfg(feature = "reconnect")]
+            first,
+            seq: first,
+            started: true,
+            sub_at: at,
+            remaining: total,
+        });
     }
 
     /// Starts a continuous fragmented submessage of `inner_total` bytes whose first bytes are `head` (the inner
