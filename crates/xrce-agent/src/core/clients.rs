@@ -231,7 +231,7 @@ where
                     client.shared_memory = rep.property("uxr_sm") == Some("1");
                     client.pack_data |= rep.property(PACK_PROPERTY) == Some("1");
                 }
-                client.start_watch(&self.config, now);
+                client.start_watch(&self.config, now, from.is_none());
                 self.clients.insert(key, Box::new(client));
                 self.schedule(key);
             }

@@ -171,6 +171,23 @@ fn the_default_timeout_is_a_minute() {
 }
 
 #[test]
+fn a_client_registered_through_the_api_waits_for_its_first_message_then_is_watched() {
+    let config = CoreConfig { remove_silent_clients_after: Some(10 * SECOND), ..CoreConfig::default() };
+    let mut core = core_with(config);
+    let t0 = Instant::now();
+    assert_eq!(core.create_client(ClientKey::from_u32(A), 0x01, 512, t0), StatusCode::OK);
+    with_participant(&mut core, A, t0);
+    run(&mut core, t0, t0 + Duration::from_secs(100));
+    assert!(has_participant(&core, A), "entities prepared for a client that connects later stay");
+    let t1 = t0 + Duration::from_secs(100);
+    core.handle_datagram(7, &create(A, 0x01, &[]), t1);
+    run(&mut core, t1, t1 + Duration::from_millis(9_990));
+    assert!(has_participant(&core, A));
+    run(&mut core, t1 + Duration::from_millis(9_990), t1 + 10 * SECOND);
+    assert!(!core.has_client(ClientKey::from_u32(A)), "once connected, a silent client times out");
+}
+
+#[test]
 fn uxr_hl_sets_the_timeout_as_eprosima() {
     let config = CoreConfig { remove_silent_clients_after: None, ..CoreConfig::default() };
     let mut core = core_with(config);

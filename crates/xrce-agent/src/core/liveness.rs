@@ -17,6 +17,9 @@
 //!   if it stays silent for [`suspect_grace`](super::CoreConfig::suspect_grace). A second session sharing
 //!   the endpoint (the C client allows several per transport) answers and stays.
 //!
+//! * A client registered through the library API (eProsima's `create_client`, entities prepared ahead) is
+//!   not timed out before its first message: it may connect much later.
+//!
 //! One timer per client, at `last heard + T/2` while it talks: a turn every `T/2` at most, not every
 //! heartbeat period.
 
@@ -42,6 +45,8 @@ pub struct Watch {
     pub due: Option<Instant>,
     /// Probed at once (see the module documentation): since when, and removed at `until` unless heard.
     suspect: Option<(Instant, Instant)>,
+    /// Registered through the API and not heard from yet: not timed out.
+    unclaimed: bool,
 }
 
 /// When a client is probed and removed.
@@ -71,8 +76,9 @@ impl Plan {
 }
 
 impl<E: Copy + Eq + Hash + Debug> Connection<E> {
-    /// Starts watching a new client.
-    pub(super) fn start_watch(&mut self, config: &CoreConfig, now: Instant) {
+    /// Starts watching a new client (`from_api`: registered through the library API, with no endpoint yet).
+    pub(super) fn start_watch(&mut self, config: &CoreConfig, now: Instant, from_api: bool) {
+        self.watch.unclaimed = from_api;
         self.watch.due = Plan::of(self.hard_liveliness, config).map(|p| now + p.probe_from);
     }
 
@@ -102,6 +108,13 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             }
         }
         let Some(plan) = plan else { return Liveness::Alive };
+        if self.watch.unclaimed {
+            if self.endpoint.is_none() {
+                self.watch.due = Some(now + plan.probe_from);
+                return Liveness::Alive;
+            }
+            self.watch.unclaimed = false;
+        }
         let silent = now.saturating_duration_since(self.last_heard);
         if silent >= plan.timeout {
             tracing::info!(client = %self.key, peer = ?self.endpoint, silent_ms = silent.as_millis(), probes = self.probes, "client silent past its timeout: removing it and its entities");
