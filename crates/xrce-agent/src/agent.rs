@@ -360,11 +360,12 @@ impl AgentInstance {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
                 let agent = Agent::<SocketAddr>::with_dds(
                     kind,
-                    CoreConfig { info_port: port, ..CoreConfig::default() },
+                    CoreConfig { info_port: port, ..core_config(&config) },
                     graph,
                     dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
+                agent.core.with(|c| c.set_peer_address(|peer| Some(*peer)));
                 let addr = bind_addr(&config.transport, port);
                 let mut server =
                     UdpServer::bind(addr, agent.core()).map_err(cannot_open(format!("UDP port {addr}")))?;
@@ -380,11 +381,12 @@ impl AgentInstance {
             Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
                 let agent = Agent::<ConnId>::with_dds(
                     kind,
-                    CoreConfig { info_port: port, ..CoreConfig::default() },
+                    CoreConfig { info_port: port, ..core_config(&config) },
                     graph,
                     dds,
                 )?;
                 load_refs(&config, &agent.profiles)?;
+                agent.core.with(|c| c.set_peer_address(|conn| Some(conn.peer)));
                 let addr = bind_addr(&config.transport, port);
                 let mut server =
                     TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
@@ -485,6 +487,18 @@ impl Drop for AgentInstance {
 #[cfg(target_os = "linux")]
 type Started = (AgentHandle, JoinHandle<std::io::Result<()>>, Option<SocketAddr>);
 
+/// The core's settings from the command line (`--client-timeout`, `--allow`, `--psk-file`).
+fn core_config(config: &Config) -> CoreConfig {
+    if config.auth.is_enabled() {
+        tracing::info!(allow = config.auth.allow.len(), psk = config.auth.psk.is_some(), "client authentication on");
+    }
+    CoreConfig {
+        remove_silent_clients_after: config.client_timeout,
+        auth: config.auth.clone(),
+        ..CoreConfig::default()
+    }
+}
+
 /// The DDS middleware's options from the command line.
 fn dds_options(config: &Config) -> DdsOptions {
     DdsOptions {
@@ -502,7 +516,7 @@ fn start_serial(
     lines: Vec<crate::transport::serial::Line>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    let agent = Agent::with_dds(kind, CoreConfig::default(), to_graph_mode(config.ros_graph), dds_options(config))?;
+    let agent = Agent::with_dds(kind, core_config(config), to_graph_mode(config.ros_graph), dds_options(config))?;
     load_refs(config, &agent.profiles)?;
     let server = crate::transport::serial::SerialServer::new(lines, agent.core());
     tracing::info!(lines = ?server.names(), middleware = kind.name(), "serial agent running");
@@ -521,9 +535,10 @@ fn start_can(
     can_id: u32,
     stop: &Arc<AtomicBool>,
 ) -> Result<Started, AgentError> {
-    use crate::transport::canfd::{core_config, CanServer, SocketCanBus};
+    use crate::transport::canfd::{core_config as can_core_config, CanServer, SocketCanBus};
     let bus = SocketCanBus::open(device).map_err(cannot_open(format!("CAN interface {device}")))?;
-    let agent = Agent::with_dds(kind, core_config(), to_graph_mode(config.ros_graph), dds_options(config))?;
+    let core = CoreConfig { max_mtu: can_core_config().max_mtu, ..core_config(config) };
+    let agent = Agent::with_dds(kind, core, to_graph_mode(config.ros_graph), dds_options(config))?;
     load_refs(config, &agent.profiles)?;
     let server = CanServer::new(bus, device, agent.core())?;
     tracing::info!(device, id = format_args!("{can_id:#x}"), middleware = kind.name(), "CAN FD agent running");

@@ -48,6 +48,10 @@ pub const DEFAULT_CAN_ID: u32 = 0x0000_0001;
 pub const MAX_CAN_ID: u32 = 0x1FFF_FFFF;
 /// Largest `-f/--file` device list read; it names a few devices, so anything bigger is a mistake.
 pub const MAX_DEVICE_FILE_LEN: u64 = 64 * 1024;
+/// Largest `--psk-file` read.
+pub const MAX_PSK_FILE_LEN: u64 = 4096;
+/// Shortest pre-shared key accepted: 16 bytes (128 bits if random; `openssl rand -hex 32` gives 64).
+pub const MIN_PSK_LEN: usize = 16;
 
 /// Everything the command line selects, ready for the agent to start.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -78,6 +82,10 @@ pub struct Config {
     /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE`, else Fast DDS where
     /// built, else rustdds.
     pub dds_engine: Option<DdsEngine>,
+    /// Silence after which a client is removed with its entities (`--client-timeout`; ours); `None`: never.
+    pub client_timeout: Option<std::time::Duration>,
+    /// Client authentication (`--allow`, `--psk-file`; ours): off when empty.
+    pub auth: crate::core::auth::AuthPolicy,
 }
 
 /// What `--dds-engine` selects: the DDS implementation behind `-m dds`.
@@ -256,6 +264,11 @@ Arguments per transport (place them after the transport):
                                       (dds middleware; ours) [default: on]
       --participant-names <on|off>    a DDS participant per XRCE participant name, announcing it; off:
                                       all share one, named xrce-rs (dds middleware; ours) [default: on]
+      --client-timeout <SECS>         remove a client silent this long with its entities, probing it
+                                      from half of it; 0: never (ours) [default: 60]
+      --allow <KEY[@ADDRESS]>         only these client keys (hex or *) from IP, IP/PREFIX or IP:PORT
+                                      may create a session; repeatable (ours) [default: anybody]
+      --psk-file <FILE>               require a CREATE_CLIENT token made with this pre-shared key (ours)
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
   * SERIAL (serial, multiserial, pseudoterminal)
@@ -355,6 +368,18 @@ struct CommonArgs {
     /// agent); off: every XRCE participant shares the default DDS participant (named `xrce-rs`).
     #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
     participant_names: OnOff,
+    /// Remove a client silent this many seconds (decimals allowed) with its entities, probing it from half
+    /// of it on; 0: never, as eProsima. A client's `uxr_hl` property overrides it.
+    #[arg(long, value_name = "SECS", default_value = "60", value_parser = parse_seconds)]
+    client_timeout: std::time::Duration,
+    /// Authentication: only clients matching one of these may create a session (KEY: hexadecimal client
+    /// key or *; ADDRESS: IP, IP/PREFIX or IP:PORT; none: any address). Repeatable.
+    #[arg(long, value_name = "KEY[@ADDRESS]", action = clap::ArgAction::Append)]
+    allow: Vec<crate::core::auth::AllowRule>,
+    /// Authentication: require in CREATE_CLIENT a token made with the pre-shared key in this file (its
+    /// bytes, trailing whitespace removed; at least 16).
+    #[arg(long, value_name = "FILE")]
+    psk_file: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -502,6 +527,7 @@ impl Cli {
             TransportCommand::Pseudoterminal(a) => (Transport::PseudoTerminal { baudrate: a.baudrate }, a.common),
             TransportCommand::Canfd(a) => (Transport::CanFd { device: a.dev, can_id: a.id }, a.common),
         };
+        let psk = common.psk_file.as_deref().map(read_psk_file).transpose()?;
         Ok(Config {
             transport,
             middleware: common.middleware,
@@ -514,8 +540,36 @@ impl Cli {
             dds_engine: common.dds_engine,
             eager_participant: common.eager_participant == OnOff::On,
             participant_names: common.participant_names == OnOff::On,
+            client_timeout: Some(common.client_timeout).filter(|t| !t.is_zero()),
+            auth: crate::core::auth::AuthPolicy { allow: common.allow, psk },
         })
     }
+}
+
+/// `--client-timeout`: non-negative decimal seconds.
+fn parse_seconds(value: &str) -> Result<std::time::Duration, String> {
+    let secs: f64 = value.trim().parse().map_err(|_| format!("`{value}` is not a number of seconds"))?;
+    std::time::Duration::try_from_secs_f64(secs).map_err(|_| format!("`{value}` is not a duration in seconds"))
+}
+
+/// The pre-shared key in `path`: its bytes, trailing whitespace (a final newline) removed.
+fn read_psk_file(path: &Path) -> Result<Vec<u8>, clap::Error> {
+    let fail =
+        |why: String| clap::Error::raw(ErrorKind::InvalidValue, format!("--psk-file {}: {why}\n", path.display()));
+    let mut key = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_PSK_FILE_LEN + 1).read_to_end(&mut key))
+        .map_err(|e| fail(e.to_string()))?;
+    if key.len() as u64 > MAX_PSK_FILE_LEN {
+        return Err(fail(format!("longer than {MAX_PSK_FILE_LEN} bytes")));
+    }
+    while key.last().is_some_and(u8::is_ascii_whitespace) {
+        key.pop();
+    }
+    if key.len() < MIN_PSK_LEN {
+        return Err(fail(format!("the key has {} bytes, fewer than {MIN_PSK_LEN}", key.len())));
+    }
+    Ok(key)
 }
 
 fn missing(what: &str) -> clap::Error {
@@ -630,6 +684,8 @@ mod tests {
                 dds_engine: None,
                 eager_participant: true,
                 participant_names: true,
+                client_timeout: Some(std::time::Duration::from_secs(60)),
+                auth: Default::default(),
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -864,6 +920,26 @@ mod tests {
             assert_eq!(c.discovery, Some(7401), "{base}");
             assert_eq!(c.p2p, Some(2018), "{base}");
         }
+    }
+
+    #[test]
+    fn client_timeout_and_authentication_options() {
+        use std::time::Duration;
+        assert_eq!(ok("udp4 -p 1 --client-timeout 2.5").client_timeout, Some(Duration::from_millis(2500)));
+        assert_eq!(ok("udp4 -p 1 --client-timeout 0").client_timeout, None);
+        assert_eq!(rejected("udp4 -p 1 --client-timeout=-1"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p 1 --client-timeout soon"), ErrorKind::ValueValidation);
+        let c = ok("serial -D /dev/x --allow 0xAABBCCDD --allow *@10.0.0.0/8");
+        assert_eq!(c.auth.allow.len(), 2, "--allow accumulates");
+        assert!(c.auth.is_enabled() && c.auth.psk.is_none());
+        assert_eq!(rejected("udp4 -p 1 --allow 0xAABBCCDD@nowhere"), ErrorKind::ValueValidation);
+        let key = temp_file("psk", "0123456789abcdef0123456789abcdef\n");
+        let c = ok(&format!("udp4 -p 1 --psk-file {}", key.display()));
+        assert_eq!(c.auth.psk.as_deref(), Some(&b"0123456789abcdef0123456789abcdef"[..]));
+        let short = temp_file("psk-short", "secret\n");
+        assert_eq!(rejected(&format!("udp4 -p 1 --psk-file {}", short.display())), ErrorKind::InvalidValue);
+        assert_eq!(rejected("udp4 -p 1 --psk-file /nonexistent/psk"), ErrorKind::InvalidValue);
+        assert!(!ok("udp4 -p 1").auth.is_enabled(), "off by default");
     }
 
     #[test]

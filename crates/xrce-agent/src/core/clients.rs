@@ -59,6 +59,13 @@ where
             self.unknown_client(from, &header, bytes);
             return;
         };
+        if self.foreign_sender(key, from) {
+            if let Some(held_back) = self.drop_log.admit(from, now) {
+                tracing::warn!(peer = ?from, client = %key, held_back, "dropping message: authentication is on and this session belongs to another address");
+            }
+            self.drop_datagram();
+            return;
+        }
         let (mut ctx, client) = self.ctx_for(key);
         let Some(client) = client else {
             self.unknown_client(from, &header, bytes);
@@ -144,12 +151,27 @@ where
     }
 
     fn handle_create_client(&mut self, from: E, header: &MessageHeader, rep: &ClientRepresentation<'_>, now: Instant) {
-        let status = self.register_client(Some(from), rep.client_key, rep.session_id, rep.mtu, Some(rep), now);
-        if status.is_ok() {
-            tracing::info!(peer = ?from, client = %rep.client_key, session = rep.session_id, mtu = rep.mtu, "session established");
-        } else {
-            tracing::warn!(peer = ?from, client = %rep.client_key, status = status.name(), "CREATE_CLIENT refused");
-        }
+        let status = match self.authorize(from, rep, now) {
+            Ok(token) => {
+                let status = self.register_client(Some(from), rep.client_key, rep.session_id, rep.mtu, Some(rep), now);
+                if status.is_ok() {
+                    tracing::info!(peer = ?from, client = %rep.client_key, session = rep.session_id, mtu = rep.mtu, "session established");
+                    if let Some(nonce) = token {
+                        self.accept_token(rep.client_key, nonce);
+                    }
+                    self.suspect_endpoint_peers(from, rep.client_key, now);
+                } else {
+                    tracing::warn!(peer = ?from, client = %rep.client_key, status = status.name(), "CREATE_CLIENT refused");
+                }
+                status
+            }
+            Err(why) => {
+                if let Some(held_back) = self.drop_log.admit(from, now) {
+                    tracing::warn!(peer = ?from, client = %rep.client_key, held_back, "CREATE_CLIENT refused (STATUS_ERR_DENIED): {why}");
+                }
+                StatusCode::ERR_DENIED
+            }
+        };
         let key = header.client_key.unwrap_or(rep.client_key);
         let reply_header = MessageHeader::new(rep.session_id, StreamId::NONE, 0, key);
         let reply = StatusAgent { result: ResultStatus::new(status), agent: AgentRepresentation::EPROSIMA };
@@ -209,9 +231,7 @@ where
                     client.shared_memory = rep.property("uxr_sm") == Some("1");
                     client.pack_data |= rep.property(PACK_PROPERTY) == Some("1");
                 }
-                if client.hard_liveliness.is_some() || self.config.remove_silent_clients_after.is_some() {
-                    client.arm_heartbeat(now, self.config.heartbeat_period);
-                }
+                client.start_watch(&self.config, now, from.is_none());
                 self.clients.insert(key, Box::new(client));
                 self.schedule(key);
             }

@@ -15,6 +15,15 @@ pub const DEFAULT_HEARTBEAT_PERIOD: Duration = Duration::from_millis(200);
 pub const DEFAULT_CLIENT_DEAD_TIME: Duration = Duration::from_secs(30);
 /// Unanswered liveliness probes (clients with `uxr_hl`) before the client is removed, as eProsima.
 pub const DEFAULT_MAX_LIVELINESS_PROBES: u8 = 3;
+/// Silence after which a client without `uxr_hl` is removed with its entities (ours; eProsima keeps such a
+/// client forever). Probes start at half of it, so a client is only removed when it neither sent anything
+/// nor ran its session for 30 s (eProsima's [`DEFAULT_CLIENT_DEAD_TIME`]), then ignored four probes; an
+/// idle client that still runs its session (a micro-ROS executor spinning) answers them. See
+/// [`liveness`](super::liveness).
+pub const DEFAULT_CLIENT_TIMEOUT: Duration = Duration::from_secs(60);
+/// How long a client gets to answer the probe sent when a new session arrives from its endpoint (a reboot
+/// with a new key) or, with authentication on, when its key is claimed from another address.
+pub const DEFAULT_SUSPECT_GRACE: Duration = Duration::from_secs(1);
 
 /// Limits and timings of an [`AgentCore`](super::AgentCore).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -47,9 +56,16 @@ pub struct CoreConfig {
     pub client_dead_time: Duration,
     /// Probes sent to a dead `uxr_hl` client before it is removed.
     pub max_liveliness_probes: u8,
-    /// Remove any client silent this long (clients without `uxr_hl` included); `None` keeps them, as
-    /// eProsima does, until the client table is full.
+    /// Remove a client (without `uxr_hl`) silent this long, probing it from half of it on; `None` keeps
+    /// silent clients, as eProsima does, until the client table is full. Default
+    /// [`DEFAULT_CLIENT_TIMEOUT`]. A client with `uxr_hl` is removed after that time and
+    /// [`Self::max_liveliness_probes`] unanswered probes instead.
     pub remove_silent_clients_after: Option<Duration>,
+    /// Time a client has to answer the probe sent when a new session comes from its endpoint with another
+    /// key (or claims its key from elsewhere, with authentication on); silent, it is removed.
+    pub suspect_grace: Duration,
+    /// Who may create a session (off by default: everybody, as eProsima).
+    pub auth: super::auth::AuthPolicy,
     /// Largest MTU the agent honours from CREATE_CLIENT; also the size used when the client says 0.
     pub max_mtu: u16,
     /// Smallest usable MTU: below it the agent could not even send a FRAGMENT (CREATE_CLIENT is refused).
@@ -76,7 +92,9 @@ impl Default for CoreConfig {
             heartbeat_period: DEFAULT_HEARTBEAT_PERIOD,
             client_dead_time: DEFAULT_CLIENT_DEAD_TIME,
             max_liveliness_probes: DEFAULT_MAX_LIVELINESS_PROBES,
-            remove_silent_clients_after: None,
+            remove_silent_clients_after: Some(DEFAULT_CLIENT_TIMEOUT),
+            suspect_grace: DEFAULT_SUSPECT_GRACE,
+            auth: super::auth::AuthPolicy::default(),
             max_mtu: 65_535,
             min_mtu: 24,
             info_port: 0,

@@ -106,6 +106,8 @@ pub struct Connection<E> {
     /// In the endpoint's lists of clients owing ACKNACKs, with read tasks, with held input: kept here so a
     /// turn checks membership without scanning the lists (thousands of subscribers read at once).
     pub(super) listed: Listed,
+    /// Its liveness timer ([`liveness`](super::liveness)).
+    pub(super) watch: super::liveness::Watch,
 }
 
 /// Which of the endpoint's client lists a connection is in.
@@ -149,6 +151,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             timer_queued: None,
             delete_request: None,
             listed: Listed::default(),
+            watch: super::liveness::Watch::default(),
         }
     }
 
@@ -196,7 +199,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     pub fn poll_timeout(&self) -> Option<Instant> {
         let probes = self.streams.rel_out.values().filter_map(ReliableOut::probe_due).min();
         let reads = self.reads.values().filter_map(ReadTask::wake_at).min();
-        [self.heartbeat_due, probes, reads].into_iter().flatten().min()
+        [self.heartbeat_due, probes, reads, self.watch.due].into_iter().flatten().min()
     }
 
     /// Starts the periodic turn if it is not running.
@@ -217,9 +220,12 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             }
             self.pump_reads(ctx, now);
         }
+        if self.watch.due.is_some_and(|due| now >= due) && self.liveness_turn(ctx, now) == Liveness::Remove {
+            return Liveness::Remove;
+        }
         if self.heartbeat_due.is_some_and(|due| now >= due) {
             self.heartbeat_due = None;
-            return self.heartbeat_turn(ctx, now);
+            self.heartbeat_turn(ctx, now);
         }
         Liveness::Alive
     }
@@ -243,12 +249,8 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
     }
 
-    fn heartbeat_turn<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) -> Liveness {
+    fn heartbeat_turn<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) {
         let config = ctx.config;
-        let silent = now.saturating_duration_since(self.last_heard);
-        if config.remove_silent_clients_after.is_some_and(|limit| silent > limit) {
-            return Liveness::Remove;
-        }
         // Back-pressure bound: a reader that is dead, or alive but acknowledging nothing for the dead time,
         // stops holding its writers back.
         let stalled = self.streams.rel_out.iter_mut().map(|(_, s)| s.stalled_for(now)).max().unwrap_or_default();
@@ -260,20 +262,8 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             self.unpinned = Some(if dead { Unpinned::Dead } else { Unpinned::Stalled });
             self.pin_readers(ctx, false);
         }
-        let mut again = self.hard_liveliness.is_some() || config.remove_silent_clients_after.is_some();
-        if dead {
-            if self.hard_liveliness.is_some() {
-                if self.probes >= config.max_liveliness_probes {
-                    return Liveness::Remove;
-                }
-                self.probes += 1;
-                let probe = xrce_proto::submessage::GetInfo {
-                    request: BaseObjectRequest { request_id: xrce_proto::RequestId(0), object_id: ObjectId::CLIENT },
-                    info_mask: 0,
-                };
-                self.send_control(ctx, &Submessage::GetInfo(probe));
-            }
-        } else {
+        // A dead client gets liveness probes instead ([`liveness`](super::liveness)).
+        if !dead {
             let beats: Vec<_> = self
                 .streams
                 .rel_out
@@ -283,15 +273,13 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                     stream.heartbeat(*sid)
                 })
                 .collect();
-            again |= !beats.is_empty();
+            if !beats.is_empty() {
+                self.heartbeat_due = Some(now + config.heartbeat_period);
+            }
             for hb in beats {
                 self.send_control(ctx, &Submessage::Heartbeat(hb));
             }
         }
-        if again {
-            self.heartbeat_due = Some(now + config.heartbeat_period);
-        }
-        Liveness::Alive
     }
 
     /// Tells the middleware whether this client's reliable readers hold writers back (see

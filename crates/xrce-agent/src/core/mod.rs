@@ -11,6 +11,7 @@
 //! the shell, and wall-clock time (TIMESTAMP_REPLY) from the anchor set with [`AgentCore::set_wall_clock`].
 //! `E` is whatever identifies a peer for the shell (a socket address, a connection id).
 
+pub mod auth;
 mod clients;
 pub mod config;
 mod connection;
@@ -18,6 +19,7 @@ mod deliver;
 pub mod droplog;
 mod entities;
 mod input;
+mod liveness;
 mod object;
 mod outbox;
 mod probe;
@@ -26,6 +28,8 @@ mod session;
 mod stream;
 mod vecmap;
 
+#[cfg(test)]
+mod ghost_tests;
 #[cfg(test)]
 mod tests;
 
@@ -109,6 +113,10 @@ pub struct AgentCore<E, M> {
     wall_anchor: Option<(Instant, Duration)>,
     last_now: Option<Instant>,
     stats: CoreStats,
+    /// Client authentication state ([`auth`]).
+    auth: auth::Gate<E>,
+    /// The clients each endpoint created ([`liveness`]).
+    created_from: liveness::CreatedFrom<E>,
 }
 
 impl<E: Debug, M> Debug for AgentCore<E, M> {
@@ -145,6 +153,8 @@ where
             wall_anchor: None,
             last_now: None,
             stats: CoreStats::default(),
+            auth: auth::Gate::default(),
+            created_from: liveness::CreatedFrom::default(),
         }
     }
 

@@ -501,6 +501,24 @@ impl<
         self
     }
 
+    /// Proves to an agent run with `--psk-file` that this client holds `psk` (see
+    /// [`SessionCore::set_pre_shared_key`]), with nonces starting from the system clock mixed with a random
+    /// hash seed, so they do not repeat across restarts.
+    #[cfg(all(feature = "psk", feature = "std"))]
+    #[must_use]
+    pub fn with_pre_shared_key(mut self, psk: &'a [u8]) -> Self {
+        use std::hash::{BuildHasher, Hasher};
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        h.write_u64(nanos);
+        // The high half keeps the clock (increasing across restarts), the low half is random.
+        let nonce = (nanos & !0xFFFF_FFFF) | (h.finish() & 0xFFFF_FFFF);
+        self.core.set_pre_shared_key(psk, nonce);
+        self
+    }
+
     /// Installs the callbacks (`uxr_set_status_callback`, `uxr_set_topic_callback`, `uxr_set_time_callback`,
     /// `uxr_set_request_callback`, `uxr_set_reply_callback`, all at once).
     pub fn with_callbacks<C2: Callbacks>(self, callbacks: C2) -> Session<'a, T, K, C2, OBE, ORE, IBE, IRE, MTU> {

@@ -264,6 +264,9 @@ struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     info_reply: Option<BaseObjectRequest>,
     packed_input: bool,
     live: liveness::Liveness,
+    /// Pre-shared key and the nonce of the current session creation (the next one adds one).
+    #[cfg(feature = "psk")]
+    psk: Option<(&'a [u8], u64)>,
 }
 
 impl<'a, const OBE: usize, const ORE: usize, const IBE: usize> State<'a, OBE, ORE, IBE> {
@@ -314,6 +317,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 info_reply: None,
                 packed_input: false,
                 live: liveness::Liveness::new(),
+                #[cfg(feature = "psk")]
+                psk: None,
             },
             in_rel: [const { None }; IRE],
         }
@@ -435,6 +440,18 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         self.st.packed_input
     }
 
+    /// Proves to an agent run with `--psk-file` (ours) that this client holds `psk`: every CREATE_CLIENT
+    /// then carries the property `xrce_rs_auth`, a token made of a nonce and an HMAC-SHA256 with `psk` over
+    /// the client key, the session id and the nonce ([`xrce_proto::auth`]). Each
+    /// [`create_session`](Self::create_session) uses a new nonce, starting at `first_nonce`: the agent refuses
+    /// a nonce it has seen for this key, so `first_nonce` must not repeat across reboots (a random number, a
+    /// counter kept in flash, or the time). Without an agent that checks it the property is ignored
+    /// (eProsima's agent looks up only the properties it knows). Takes effect at the next session creation.
+    #[cfg(feature = "psk")]
+    pub fn set_pre_shared_key(&mut self, psk: &'a [u8], first_nonce: u64) {
+        self.st.psk = Some((psk, first_nonce.wrapping_sub(1)));
+    }
+
     // ---- session life ----------------------------------------------------------------------------------
 
     /// `uxr_create_session`: starts sending CREATE_CLIENT, up to 10 times one second apart.
@@ -444,6 +461,12 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// `uxr_create_session_retries`: as [`create_session`](Self::create_session) with `attempts` sends.
     pub fn create_session_retries(&mut self, attempts: usize, now: i64) {
+        #[cfg(feature = "psk")]
+        if let Some((_, nonce)) = self.st.psk.as_mut() {
+            // Retries of this creation resend the same token (the agent accepts a repeat of the token that
+            // created the session); the next creation gets a fresh one.
+            *nonce = nonce.wrapping_add(1);
+        }
         self.reset_streams();
         self.st.live.set_recreating(false);
         self.st.state = SessionState::Creating;
@@ -692,6 +715,16 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                     if st.packed_input {
                         rep.properties = Some(Seq::Items(&PACK_PROPERTIES));
                     }
+                    #[cfg(feature = "psk")]
+                    if let Some((psk, nonce)) = st.psk {
+                        let token = xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce);
+                        let auth =
+                            xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
+                        let both = [auth, PACK_PROPERTIES[0]];
+                        let props = if st.packed_input { &both[..] } else { core::slice::from_ref(&auth) };
+                        rep.properties = Some(Seq::Items(props));
+                        return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
+                    }
                     return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
                 }
                 (SessionState::Deleting, Some(true)) => {
@@ -842,6 +875,12 @@ fn lose<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_,
 
 /// An agent answers but does not hold the session: create it again, same key and id.
 fn recreate<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
+    #[cfg(feature = "psk")]
+    if let Some((_, nonce)) = st.psk.as_mut() {
+        // A fresh token: an agent that still remembers the last one (it dropped the session but did not
+        // restart) refuses a replay.
+        *nonce = nonce.wrapping_add(1);
+    }
     st.state = SessionState::Creating;
     st.live.start_attempts(now);
     st.live.set_recreating(true);
