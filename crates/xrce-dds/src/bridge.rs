@@ -391,6 +391,12 @@ impl RawWriter {
         self.matched.load(Ordering::Relaxed)
     }
 
+    /// Whether the writer has matched a reader of the participant whose GUID prefix is `prefix`.
+    pub fn matched_participant(&self, prefix: &[u8; 12]) -> bool {
+        self.drain_status();
+        lock(&self.matched_guids).iter().any(|g| g.starts_with(prefix))
+    }
+
     /// Remote readers the participant has already discovered on this writer's topic, with a QoS this
     /// writer can serve, that the writer has not matched yet (0 once it reaches every reader known now).
     ///

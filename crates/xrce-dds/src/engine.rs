@@ -345,6 +345,12 @@ impl RawWriter {
         each!(self, w => w.wait_for_acknowledgments(max_wait))
     }
 
+    /// Whether the writer has matched a reader of the participant whose GUID prefix is `prefix` (the first 12
+    /// bytes of any of its GUIDs).
+    pub fn matched_participant(&self, prefix: &[u8; 12]) -> bool {
+        each!(self, w => w.matched_participant(prefix))
+    }
+
     /// Remote readers of this writer's topic that the participant has discovered (QoS-compatible) and the
     /// writer has not matched yet; the agent holds a fresh writer's first samples while this is not 0
     /// (bounded), so that a volatile writer does not skip them for a reader it is about to match. Fast DDS

@@ -308,6 +308,10 @@ impl RawWriter {
         usize::try_from(self.writer.matched()).unwrap_or(0)
     }
 
+    pub(crate) fn matched_participant(&self, prefix: &[u8; 12]) -> bool {
+        self.writer.matched_prefix(prefix)
+    }
+
     pub(crate) fn wait_for_acknowledgments(&self, max_wait: Duration) -> Result<bool, DdsError> {
         Ok(self.writer.wait_for_acknowledgments(max_wait))
     }

@@ -204,6 +204,14 @@ impl Replier {
         self.writer.guid()
     }
 
+    /// Whether the reply writer has matched a reply reader of the participant that wrote `request` (its
+    /// requester): a reply written before that is never delivered to a volatile reader (ROS 2 service
+    /// clients), and a requester that saw this replier first may already have sent its request.
+    pub fn requester_matched(&self, request: &SampleIdentity) -> bool {
+        let prefix: [u8; 12] = std::array::from_fn(|i| request.writer_guid.get(i).copied().unwrap_or(0));
+        self.writer.matched_participant(&prefix)
+    }
+
     /// Matched requesters (readers of the reply topic).
     pub fn matched_requesters(&self) -> usize {
         self.writer.matched_readers()

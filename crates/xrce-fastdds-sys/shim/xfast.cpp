@@ -1,6 +1,8 @@
 // C ABI over Fast DDS 2.9 (Debian libfastrtps-dev) for untyped pub/sub: runtime topic and type names, payloads
 // are opaque CDR bodies. Every entry point catches C++ exceptions and reports failure through its return value,
 // because unwinding into Rust is undefined behaviour.
+#include <cstring>
+
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
@@ -331,6 +333,19 @@ int32_t xf_writer_matched(xf_writer* w) {
     PublicationMatchedStatus s;
     if (w->w->get_publication_matched_status(s) != ReturnCode_t::RETCODE_OK) return -1;
     return s.current_count;
+    XF_CATCH(-2)
+}
+
+// Whether the writer has matched a reader of the participant whose GUID prefix is `prefix` (12 bytes): 1 yes,
+// 0 no, < 0 error. A reply is held until its requester's reply reader is matched (a volatile reader matched
+// later would never get it).
+int32_t xf_writer_matched_prefix(xf_writer* w, const uint8_t* prefix) {
+    XF_TRY
+    std::lock_guard<std::mutex> g(w->listener.m);
+    for (const GUID_t& guid : w->listener.matched) {
+        if (std::memcmp(guid.guidPrefix.value, prefix, 12) == 0) return 1;
+    }
+    return 0;
     XF_CATCH(-2)
 }
 

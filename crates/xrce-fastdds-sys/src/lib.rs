@@ -335,6 +335,12 @@ impl Writer {
         usize::try_from(n).unwrap_or(0)
     }
 
+    /// Whether the writer has matched a reader of the participant with GUID prefix `prefix` (false on error).
+    pub fn matched_prefix(&self, prefix: &[u8; 12]) -> bool {
+        // SAFETY: live writer; `prefix` is 12 readable bytes for the call; the shim locks the matched set.
+        unsafe { ffi::xf_writer_matched_prefix(self.w, prefix.as_ptr()) == 1 }
+    }
+
     /// Writes a CDR body (no encapsulation header; sent as CDR_LE); returns the sample's identity.
     pub fn write(&self, body: &[u8], related: Option<&SampleIdentity>) -> Result<SampleIdentity, Error> {
         let mut out = SampleIdentity::default();

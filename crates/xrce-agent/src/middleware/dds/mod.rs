@@ -143,6 +143,12 @@ pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(500);
 /// our participant take up to a few hundred ms). Still below micro-ROS' 1 s confirmation wait.
 pub const FIRST_CONTACT_GATE_REQUESTER: Duration = Duration::from_millis(600);
 
+/// Longest a reply is held while the replier's reply writer has not matched its requester's reply reader yet
+/// (see [`Dds::write_reply`]): a requester that discovered the replier first may call at once, and a reply
+/// written before the match never reaches its volatile reader (a ROS 2 service client: 1 call in 50 timed out
+/// so). After it the reply goes anyway (a requester that never matches must not hold the client).
+pub const REPLY_MATCH_WAIT: Duration = Duration::from_millis(500);
+
 /// DDS participants the agent creates for XRCE participant names (~1.7 MiB and 5 threads each on Fast DDS);
 /// XRCE participants named after that share the default participant, with a warning. 128 named nodes is more
 /// than one agent serves in the deployments we know (PX4: one; micro-ROS: a few per board).
@@ -271,6 +277,8 @@ pub struct Dds {
     gates: HashMap<EntityRef, Instant>,
     /// Best-effort samples written to a datawriter at its gate, replayed once it opens.
     held: HashMap<EntityRef, HeldSamples>,
+    /// Repliers holding a reply until its requester's reply reader is matched: since when.
+    replies_held: HashMap<EntityRef, Instant>,
     gate_timer: GateTimer,
     /// The default domain's DDS participant, created with the middleware when asked
     /// ([`Dds::with_eager_participant`]).
@@ -375,6 +383,7 @@ impl Dds {
             graph: RosGraph::new(RosGraphMode::default()),
             gates: HashMap::new(),
             held: HashMap::new(),
+            replies_held: HashMap::new(),
             gate_timer: GateTimer::default(),
             eager: None,
             share_participants: false,
@@ -790,6 +799,7 @@ impl Middleware for Dds {
         self.pinned.remove(&entity);
         self.gates.remove(&entity);
         self.held.remove(&entity);
+        self.replies_held.remove(&entity);
         let node = self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
         self.graph_unlink(entity, &node);
         self.owned.removed(entity.client);
@@ -863,11 +873,25 @@ impl Middleware for Dds {
         data: &[u8],
         now: Instant,
     ) -> Result<WriteOutcome, MiddlewareError> {
-        let node = self.node(replier)?;
+        let node = self.entities.get(&replier).map(|n| &**n).ok_or_else(|| unknown(replier))?;
         let Handle::Replier(r) = &node.handle else {
             return Err(MiddlewareError::Unsupported(format!("{replier:?} is not a replier")));
         };
-        match r.write_reply(&identity_to_dds(identity), data) {
+        let request = identity_to_dds(identity);
+        if !r.requester_matched(&request) {
+            let since = *self.replies_held.entry(replier).or_insert(now);
+            if now.saturating_duration_since(since) < REPLY_MATCH_WAIT {
+                // Held (the core keeps the message and retries when the gate timer wakes it).
+                self.gate_timer.arm(now + GATE_RECHECK, self.waker.as_ref());
+                return Ok(WriteOutcome::WouldBlock);
+            }
+            tracing::debug!(
+                ?replier,
+                "reply written before its requester's reader matched (waited {REPLY_MATCH_WAIT:?})"
+            );
+        }
+        self.replies_held.remove(&replier);
+        match r.write_reply(&request, data) {
             Ok(_) => Ok(WriteOutcome::Accepted),
             Err(e) => self.refused(replier, e, now),
         }
