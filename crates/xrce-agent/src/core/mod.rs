@@ -189,6 +189,11 @@ where
         self.clients.keys().copied().collect()
     }
 
+    /// Objects (participants, topics, ... ) the clients hold, all clients together.
+    pub fn object_count(&self) -> usize {
+        self.clients.values().map(|c| c.objects.len()).sum()
+    }
+
     /// Whether `key` is registered.
     pub fn has_client(&self, key: ClientKey) -> bool {
         self.clients.contains_key(&key)
