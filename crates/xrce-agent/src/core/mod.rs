@@ -83,6 +83,23 @@ pub struct CoreStats {
     pub samples_dropped_in: u64,
 }
 
+/// The context a connection runs in, borrowed field by field from the endpoint `$core` (so the client table
+/// stays free to borrow alongside).
+macro_rules! endpoint_ctx {
+    ($core:ident) => {
+        Ctx {
+            middleware: &mut $core.middleware,
+            config: &$core.config,
+            stats: &mut $core.stats,
+            pool: &mut $core.pool,
+            drop_log: &mut $core.drop_log,
+            wall_anchor: $core.wall_anchor,
+            writes: 0,
+            retry: false,
+        }
+    };
+}
+
 /// The agent core. See the module documentation.
 pub struct AgentCore<E, M> {
     config: CoreConfig,
@@ -320,16 +337,7 @@ where
         }
         while let Some(key) = self.turns.pop(outbox::Class::Stream) {
             let Some(client) = self.clients.get_mut(&key) else { continue };
-            let mut ctx = Ctx {
-                middleware: &mut self.middleware,
-                config: &self.config,
-                stats: &mut self.stats,
-                pool: &mut self.pool,
-                drop_log: &mut self.drop_log,
-                wall_anchor: self.wall_anchor,
-                writes: 0,
-                retry: false,
-            };
+            let mut ctx = endpoint_ctx!(self);
             let msg = client.next_stream_message(&mut ctx, now);
             let to = client.endpoint;
             if client.has_stream_work() {
@@ -426,16 +434,7 @@ where
 
     /// A client with the context it runs in (the endpoint's middleware, limits, counters and buffers).
     fn ctx_for(&mut self, key: ClientKey) -> (Ctx<'_, E, M>, Option<&mut Connection<E>>) {
-        let ctx = Ctx {
-            middleware: &mut self.middleware,
-            config: &self.config,
-            stats: &mut self.stats,
-            pool: &mut self.pool,
-            drop_log: &mut self.drop_log,
-            wall_anchor: self.wall_anchor,
-            writes: 0,
-            retry: false,
-        };
+        let ctx = endpoint_ctx!(self);
         (ctx, self.clients.get_mut(&key).map(|c| &mut **c))
     }
 
