@@ -269,3 +269,25 @@ fn partitions_separate_endpoints_on_the_fast_dds_engine() {
     assert_eq!(writer.matched_readers(), 1, "only the reader of partition a matched");
     assert!(other.queue().is_empty(), "the reader in partition b gets nothing");
 }
+
+/// A dropped reader leaves its remote writer's matched set (SEDP dispose): what an agent relies on to make a
+/// removed client's readers disappear from DDS peers.
+#[test]
+#[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]
+fn a_dropped_reader_is_unmatched_by_the_remote_writer() {
+    let (a, b) = (bridge(), bridge());
+    let pa = a.participant(0, "").unwrap();
+    let pb = b.participant(0, "").unwrap();
+    let ta = pa.topic("DropTopic", "HelloWorld", false).unwrap();
+    let tb = pb.topic("DropTopic", "HelloWorld", false).unwrap();
+    let writer = pa.create_writer(&ta, &EndpointQos::default()).unwrap();
+    let reader = pb.create_reader(&tb, &EndpointQos::default()).unwrap();
+    wait_matched(&writer, 1, 20);
+    drop(reader);
+    let start = Instant::now();
+    while writer.matched_readers() != 0 && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    println!("unmatched after {:?}: {}", start.elapsed(), writer.matched_readers());
+    assert_eq!(writer.matched_readers(), 0, "the writer lost the dropped reader");
+}
