@@ -229,13 +229,17 @@ fn a_pre_shared_key_admits_our_client_and_refuses_one_without_it() {
 
 #[test]
 #[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]
-fn a_dds_peer_loses_the_reader_of_a_client_killed_with_sigkill_within_its_timeout() {
+fn a_dds_peer_loses_the_reader_and_the_writer_of_a_client_killed_with_sigkill_within_its_timeout() {
     const TIMEOUT: Duration = Duration::from_secs(2);
     netns::require_loopback_namespace();
-    let args = ["xrce-agent", "udp4", "-p", "0", "-m", "dds", "--dds-engine", "rustdds", "-v", "0"];
+    // The default engine (Fast DDS). On the RustDDS fallback the peer never sees the deleted reader go (the
+    // agent deletes it; RustDDS 0.15.1 does not announce it here): a known limit, docs/dds-engine.md.
+    let args = ["xrce-agent", "udp4", "-p", "0", "-m", "dds", "--dds-engine", "fastdds", "-v", "0"];
     let instance = AgentInstance::create(args.into_iter().chain(["--client-timeout", "2"])).expect("agent starts");
     let addr = SocketAddr::from(([127, 0, 0, 1], instance.local_addr().expect("bound").port()));
+    // A RustDDS peer: it lists the writers it discovered (Fast DDS' API here does not).
     let peer = xrce_dds::DdsBridge::new(xrce_dds::BridgeConfig {
+        engine: xrce_dds::Engine::RustDds,
         only_networks: Some(vec![std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST)]),
         ..Default::default()
     });
@@ -254,5 +258,20 @@ fn a_dds_peer_loses_the_reader_of_a_client_killed_with_sigkill_within_its_timeou
     let gone = time_until(TIMEOUT + Duration::from_secs(3), || writer.matched_readers() == 0).map(|_| killed.elapsed());
     println!("the DDS peer lost the reader {gone:?} after SIGKILL (timeout {TIMEOUT:?})");
     let gone = gone.expect("the DDS peer loses the killed client's reader");
+    assert!(gone <= TIMEOUT + Duration::from_secs(1), "{gone:?}");
+
+    // The same for a client's datawriter (topic `ghosts`): the peer's participant stops listing it.
+    let key = key ^ 0x0001_0000;
+    let ghosts = participant.topic("ghosts", "G", false).expect("topic");
+    let _reader = participant.create_reader(&ghosts, &xrce_dds::EndpointQos::default()).expect("DDS reader");
+    let mut child = spawn_child(addr, key, false);
+    let writers = || participant.discovered_writers("ghosts");
+    assert!(time_until(Duration::from_secs(20), || writers() == Some(1)).is_some(), "the peer sees the writer");
+    child.0.kill().expect("SIGKILL");
+    let killed = Instant::now();
+    let _ = child.0.wait();
+    let gone = time_until(TIMEOUT + Duration::from_secs(3), || writers() == Some(0)).map(|_| killed.elapsed());
+    println!("the DDS peer lost the writer {gone:?} after SIGKILL (timeout {TIMEOUT:?})");
+    let gone = gone.expect("the DDS peer loses the killed client's writer");
     assert!(gone <= TIMEOUT + Duration::from_secs(1), "{gone:?}");
 }

@@ -217,6 +217,17 @@ impl RawTopic {
 }
 
 impl Participant {
+    /// Remote writers on `topic` this participant has discovered and not seen leave (SEDP): a peer's view of
+    /// who publishes, for tests that watch an agent's entities come and go.
+    pub fn discovered_writers(&self, topic: &str) -> usize {
+        self.inner
+            .participant
+            .discovered_writers()
+            .iter()
+            .filter(|d| d.publication_topic_data.topic_name == topic)
+            .count()
+    }
+
     /// Domain and profile this participant serves.
     pub fn key(&self) -> &ParticipantKey {
         &self.inner.key

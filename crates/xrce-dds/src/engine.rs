@@ -227,6 +227,16 @@ fn mixed() -> DdsError {
 }
 
 impl Participant {
+    /// Remote writers on `topic` this participant has discovered and not seen leave; `None` on the Fast DDS
+    /// engine, which does not list them (tests watch a peer's view of the agent's writers with RustDDS).
+    pub fn discovered_writers(&self, topic: &str) -> Option<usize> {
+        match self {
+            Self::Rust(p) => Some(p.discovered_writers(topic)),
+            #[cfg(feature = "fastdds")]
+            Self::Fast(_) => None,
+        }
+    }
+
     /// Domain and name this participant serves.
     pub fn key(&self) -> &ParticipantKey {
         each!(self, p => p.key())
