@@ -618,3 +618,110 @@ fn a_dead_udp_port_is_retried_on_the_back_off() {
     assert_eq!(s.callbacks().timeline.events(), ["lost"]);
     assert!(during < 60, "{during} messages in 4 s");
 }
+
+/// A TCP relay between clients and agent (a connection upstream per client connection) whose connections can
+/// be broken on demand; new connections go through afterwards.
+struct TcpRelay {
+    addr: SocketAddr,
+    open: Arc<Mutex<Vec<std::net::TcpStream>>>,
+    stop: Arc<AtomicBool>,
+}
+
+impl TcpRelay {
+    fn new(agent: SocketAddr) -> Self {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        listener.set_nonblocking(true).unwrap();
+        let addr = listener.local_addr().unwrap();
+        let open: Arc<Mutex<Vec<std::net::TcpStream>>> = Arc::default();
+        let stop = Arc::new(AtomicBool::new(false));
+        let (open2, stop2) = (open.clone(), stop.clone());
+        thread::spawn(move || {
+            while !stop2.load(Ordering::Relaxed) {
+                let Ok((client, _)) = listener.accept() else {
+                    thread::sleep(Duration::from_millis(5));
+                    continue;
+                };
+                client.set_nonblocking(false).unwrap();
+                let Ok(upstream) = std::net::TcpStream::connect(agent) else { continue };
+                let pump = |mut from: std::net::TcpStream, mut to: std::net::TcpStream| {
+                    thread::spawn(move || {
+                        let _ = std::io::copy(&mut from, &mut to);
+                        let _ = to.shutdown(std::net::Shutdown::Both);
+                    })
+                };
+                let mut list = open2.lock().unwrap();
+                list.push(client.try_clone().unwrap());
+                list.push(upstream.try_clone().unwrap());
+                pump(client.try_clone().unwrap(), upstream.try_clone().unwrap());
+                pump(upstream, client);
+            }
+        });
+        Self { addr, open, stop }
+    }
+
+    /// Breaks every connection open now (both sides see it closed).
+    fn cut(&self) {
+        for s in self.open.lock().unwrap().drain(..) {
+            let _ = s.shutdown(std::net::Shutdown::Both);
+        }
+    }
+}
+
+impl Drop for TcpRelay {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.cut();
+    }
+}
+
+/// The publisher's TCP connection breaks under a 1 kHz reliable flow while the agent lives on: the client
+/// connects again and re-creates its session with the resume property, the agent keeps the session's streams
+/// (`STATUS_OK_MATCHED`), and the subscriber gets every sample exactly once, in order.
+#[test]
+fn a_broken_tcp_connection_resumes_the_session_without_duplicates() {
+    let port = free_tcp_port();
+    let agent: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
+    let mut instance = agent_with(&["tcp4", "-p", &port.to_string()]);
+    let relay = TcpRelay::new(agent);
+    let stop_pub = Arc::new(AtomicBool::new(false));
+    let stop_sub = Arc::new(AtomicBool::new(false));
+    let published = Arc::new(AtomicU32::new(0));
+    let (sub, sub_thread) = subscriber(Link::Tcp(agent), 0x5AB0_0021, stop_sub.clone());
+    thread::sleep(Duration::from_millis(300));
+    let (pub_timeline, pub_thread) =
+        publisher(Link::Tcp(relay.addr), 0x5AB0_0022, 1000, stop_pub.clone(), published.clone());
+    assert!(wait_for(|| sub.samples.lock().unwrap().len() > 1000, Duration::from_secs(20)), "no flow before the cut");
+    let cut_at = Instant::now();
+    relay.cut();
+    let resumed = wait_for(
+        || sub.samples.lock().unwrap().iter().any(|(_, t)| *t >= cut_at + Duration::from_millis(50)),
+        Duration::from_secs(15),
+    );
+    assert!(resumed, "no sample delivered after the connection broke");
+    thread::sleep(Duration::from_secs(2));
+    stop_pub.store(true, Ordering::Relaxed);
+    pub_thread.join().unwrap();
+    let total = published.load(Ordering::Relaxed);
+    wait_for(|| sub.samples.lock().unwrap().len() >= total as usize, Duration::from_secs(10));
+    stop_sub.store(true, Ordering::Relaxed);
+    sub_thread.join().unwrap();
+    drop(relay);
+    instance.stop().unwrap();
+
+    let samples = sub.samples.lock().unwrap().clone();
+    let (lost, dup) = lost_and_duplicated(&samples, 0..total);
+    println!(
+        "TCP connection broken: {total} published, {} received, {} lost, {} duplicated; publisher callbacks {:?}, \
+         back {:?} after the cut",
+        samples.len(),
+        lost.len(),
+        dup.len(),
+        pub_timeline.events(),
+        pub_timeline.first("resumed", cut_at).map(|t| t - cut_at),
+    );
+    assert!(lost.is_empty(), "lost: {lost:?}");
+    assert!(dup.is_empty(), "duplicated: {dup:?}");
+    let order: Vec<u32> = samples.iter().map(|s| s.0).collect();
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "out of order");
+    assert_eq!(pub_timeline.events(), ["lost", "resumed"], "the agent kept the session: resumed, not re-created");
+}

@@ -14,7 +14,7 @@ use xrce_proto::{
 
 use super::connection::Connection;
 use super::input::{info_reply, parse_submessages};
-use super::session::{parse_hard_liveliness, PACK_PROPERTY};
+use super::session::{parse_hard_liveliness, PACK_PROPERTY, RESUME_PROPERTY};
 use super::{encode_message, AgentCore, Transmit};
 use crate::middleware::Middleware;
 
@@ -211,9 +211,16 @@ where
             return StatusCode::ERR_INVALID_DATA;
         }
         let mtu = usize::from(mtu.min(self.config.max_mtu));
+        let resume = rep.is_some_and(|r| r.property(RESUME_PROPERTY) == Some("1"));
+        let mut status = StatusCode::OK;
         match self.clients.get_mut(&key) {
             Some(client) if client.session_id == session_id => {
-                client.reset_streams();
+                if resume && client.mtu == mtu {
+                    // Our client coming back after losing its link: same streams, from a new endpoint.
+                    status = StatusCode::OK_MATCHED;
+                } else {
+                    client.reset_streams();
+                }
                 client.mtu = mtu;
                 client.last_heard = now;
                 client.probes = 0;
@@ -248,7 +255,7 @@ where
                 self.by_endpoint.insert(ep, key);
             }
         }
-        StatusCode::OK
+        status
     }
 
     /// Makes room in a full client table by removing the client silent the longest, if it is dead.

@@ -56,6 +56,13 @@ pub enum Unpinned {
 /// client does not after a DATA): the agent then packs several samples per message.
 pub const PACK_PROPERTY: &str = "xrce_rs_pack";
 
+/// CREATE_CLIENT property our client sends when it re-creates a session it lost (reconnection): if this
+/// agent still holds that session (same key and session id), it keeps its streams instead of resetting them
+/// and answers `STATUS_OK_MATCHED`, so the client resumes where it was and nothing is delivered twice (a
+/// TCP client's new connection cannot be matched to its session otherwise). eProsima's agent ignores it and
+/// answers `OK`, as it does to any CREATE_CLIENT; a client that rebooted does not send it.
+pub const RESUME_PROPERTY: &str = "xrce_rs_resume";
+
 /// Parses the `uxr_hl` value: milliseconds as decimal digits.
 pub fn parse_hard_liveliness(value: &str) -> Option<Duration> {
     let ms: u64 = value.trim().parse().ok()?;

@@ -49,6 +49,11 @@ pub const PACK_PROPERTY: &str = "xrce_rs_pack";
 
 const PACK_PROPERTIES: [xrce_proto::Property<'static>; 1] = [xrce_proto::Property { name: PACK_PROPERTY, value: "1" }];
 
+/// CREATE_CLIENT property of a re-creation during reconnection: our agent, if it still holds the session,
+/// keeps its streams and answers `STATUS_OK_MATCHED` (the session resumes, nothing is delivered twice);
+/// others ignore it.
+pub const RESUME_PROPERTY: &str = "xrce_rs_resume";
+
 /// What the agent said, delivered while input is processed. Every method has a do-nothing default; `out`
 /// lets a callback write into the output streams (a replier answering from `on_request`, say).
 pub trait Callbacks {
@@ -712,18 +717,26 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                     let header = MessageHeader::new(st.session_id & 0x80, StreamId::NONE, 0, st.key);
                     let mtu = u16::try_from(st.mtu.saturating_sub(4)).unwrap_or(u16::MAX);
                     let mut rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                    #[cfg(feature = "psk")]
+                    let token =
+                        st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
+                    let none = xrce_proto::Property { name: "", value: "" };
+                    let mut props = [none; 3];
+                    let mut n = 0;
                     if st.packed_input {
-                        rep.properties = Some(Seq::Items(&PACK_PROPERTIES));
+                        add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
+                    }
+                    if RECONNECT && st.live.recreating() {
+                        add_property(&mut props, &mut n, xrce_proto::Property { name: RESUME_PROPERTY, value: "1" });
                     }
                     #[cfg(feature = "psk")]
-                    if let Some((psk, nonce)) = st.psk {
-                        let token = xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce);
+                    if let Some(token) = &token {
                         let auth =
                             xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
-                        let both = [auth, PACK_PROPERTIES[0]];
-                        let props = if st.packed_input { &both[..] } else { core::slice::from_ref(&auth) };
-                        rep.properties = Some(Seq::Items(props));
-                        return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
+                        add_property(&mut props, &mut n, auth);
+                    }
+                    if n > 0 {
+                        rep.properties = Some(Seq::Items(props.get(..n).unwrap_or(&[])));
                     }
                     return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
                 }
@@ -850,6 +863,14 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     }
 }
 
+/// Puts `p` in the next free slot of `props` (CREATE_CLIENT properties).
+fn add_property<'p>(props: &mut [xrce_proto::Property<'p>], n: &mut usize, p: xrce_proto::Property<'p>) {
+    if let Some(slot) = props.get_mut(*n) {
+        *slot = p;
+        *n += 1;
+    }
+}
+
 /// Whether reconnection is built in (feature `reconnect`): without it, the branches that only a lost
 /// session takes are removed at compile time, so the footprint build carries none of them.
 pub(crate) const RECONNECT: bool = cfg!(feature = "reconnect");
@@ -942,7 +963,12 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
             Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
                 st.session_retry = None;
                 let recreated = st.live.take_recreating();
-                if s.result.status == StatusCode::OK {
+                if RECONNECT && recreated && s.result.status == StatusCode::OK_MATCHED {
+                    // Our agent still held the session and kept its streams: go on where we were.
+                    st.state = SessionState::Established;
+                    st.live.heard(now);
+                    st.live.push(SessionEvent::Restored { recreated: false });
+                } else if s.result.status == StatusCode::OK {
                     st.state = SessionState::Established;
                     st.live.heard(now);
                     st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
