@@ -42,6 +42,11 @@ impl MessageHeader {
         }
     }
 
+    /// Size of the header `message` starts with (its first byte, the session id, says); `None` when empty.
+    pub fn size_of_message(message: &[u8]) -> Option<usize> {
+        message.first().map(|&session_id| Self::size_for(session_id))
+    }
+
     /// Decodes the header at the start of `buf`; returns it and its size.
     pub fn decode(buf: &[u8]) -> Result<(Self, usize), Error> {
         let fixed: &[u8; 4] = buf.first_chunk().ok_or(Error::Truncated)?;
@@ -90,5 +95,12 @@ mod tests {
         assert_eq!((n, h.client_key), (4, None));
         assert_eq!(MessageHeader::decode(&[0x01, 0x01, 0, 0, 1]), Err(Error::Truncated));
         assert_eq!(h.encode(&mut [0u8; 3]), Err(Error::BufferTooSmall { needed: 4 }));
+    }
+
+    #[test]
+    fn size_of_message_reads_the_session_id() {
+        assert_eq!(MessageHeader::size_of_message(&[0x01, 0x80]), Some(8));
+        assert_eq!(MessageHeader::size_of_message(&[0x81]), Some(4));
+        assert_eq!(MessageHeader::size_of_message(&[]), None);
     }
 }

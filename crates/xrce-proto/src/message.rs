@@ -3,7 +3,8 @@
 
 use crate::cdr::{padding, Endianness, Error, Result, Writer};
 use crate::header::MessageHeader;
-use crate::submessage::{id, Submessage, SubmessageHeader};
+use crate::submessage::{flag, id, Submessage, SubmessageHeader};
+use crate::view::SubmessageId;
 
 /// Parses the header of `buf` and returns it with an iterator over the submessages that follow.
 pub fn parse(buf: &[u8]) -> Result<(MessageHeader, Submessages<'_>)> {
@@ -34,6 +35,33 @@ impl<'a> RawSubmessage<'a> {
     pub fn decode(&self) -> Result<Submessage<'a>> {
         Submessage::decode(self.header, self.message, self.start, self.end)
     }
+}
+
+impl<'a> RawSubmessage<'a> {
+    /// The whole submessage: its header, then the payload.
+    pub fn bytes(&self) -> &'a [u8] {
+        self.message.get(self.start.saturating_sub(SubmessageHeader::SIZE)..self.end).unwrap_or(&[])
+    }
+
+    /// Its id, if known.
+    pub const fn id(&self) -> Option<SubmessageId> {
+        SubmessageId::from_u8(self.header.id)
+    }
+
+    /// For a FRAGMENT, whether it completes the inner message (its LAST flag); `None` for other submessages.
+    pub const fn fragment_last(&self) -> Option<bool> {
+        if self.header.id == id::FRAGMENT {
+            Some(self.header.flags & flag::LAST_FRAGMENT != 0)
+        } else {
+            None
+        }
+    }
+}
+
+/// Where a submessage appended after `len` bytes of message starts: submessages are 4-aligned from the
+/// message start. Also the length eProsima's client sends a message of `len` bytes with (zero padding to 4).
+pub const fn submessage_start(len: usize) -> usize {
+    (len + 3) & !3
 }
 
 /// Iterator over the submessages of a message, advancing by `submessageLength` and 4-byte padding.
@@ -187,6 +215,21 @@ mod tests {
             [it.next().unwrap(), it.next().unwrap()]
         };
         assert_eq!(decoded, [hb, hb]);
+    }
+
+    #[test]
+    fn raw_submessage_views_and_alignment() {
+        assert_eq!([0, 1, 4, 5, 8].map(submessage_start), [0, 4, 4, 8, 8]);
+        // A HEARTBEAT, padding, then a last FRAGMENT of 2 bytes.
+        let msg = [0x81, 0x80, 0, 0, 0x0B, 0x01, 5, 0, 0, 0, 1, 0, 0x80, 0, 0, 0, 0x0D, 0x03, 2, 0, 7, 8];
+        let (_, mut subs) = parse(&msg).unwrap();
+        let hb = subs.next().unwrap().unwrap();
+        assert_eq!((hb.id(), hb.fragment_last()), (Some(SubmessageId::Heartbeat), None));
+        assert_eq!(hb.bytes(), &msg[4..13]);
+        let frag = subs.next().unwrap().unwrap();
+        assert_eq!((frag.id(), frag.fragment_last()), (Some(SubmessageId::Fragment), Some(true)));
+        assert_eq!(frag.bytes(), &msg[16..]);
+        assert_eq!(frag.payload(), &[7, 8]);
     }
 
     #[test]

@@ -53,6 +53,18 @@ pub const fn session_has_key(session_id: u8) -> bool {
     session_id < SESSION_ID_WITHOUT_KEY
 }
 
+/// Whether a message with this session id travels outside any session (`SESSION_ID_NONE`, with or without
+/// the client key).
+pub const fn is_session_none(session_id: u8) -> bool {
+    session_id & !SESSION_ID_WITHOUT_KEY == 0
+}
+
+/// The out-of-session id that carries the key exactly when `session_id` does: what CREATE_CLIENT travels
+/// with (0x00 or 0x80).
+pub const fn session_none_for(session_id: u8) -> u8 {
+    session_id & SESSION_ID_WITHOUT_KEY
+}
+
 /// The kind of a stream, given by its id (spec §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum StreamKind {
@@ -547,6 +559,14 @@ mod tests {
         assert_eq!(ObjectId::new(0x123, ObjectKind::DataWriter).0, [0x12, 0x35]);
         assert_eq!(ObjectId([0x12, 0x35]).number(), 0x123);
         assert_eq!(ObjectId([0x00, 0x13]).with_kind(ObjectKind::Participant), ObjectId([0x00, 0x11]));
+    }
+
+    #[test]
+    fn session_none_keeps_the_key_choice() {
+        assert_eq!(session_none_for(0x81), SESSION_ID_NONE_WITHOUT_KEY);
+        assert_eq!(session_none_for(0x01), SESSION_ID_NONE_WITH_KEY);
+        assert!(is_session_none(0x00) && is_session_none(0x80));
+        assert!(!is_session_none(0x01) && !is_session_none(0x81) && !is_session_none(0xFF));
     }
 
     #[test]

@@ -11,7 +11,7 @@
 //! * [`FragmentHead`]: the header of a FRAGMENT, whose length and last flag a writer fills in as the chunk
 //!   grows (spec §6.10).
 //! * [`write_data_object`]: the object a WRITE_DATA payload writes to; [`submessage_id`]: the id of an
-//!   encoded submessage.
+//!   encoded submessage; [`mark_reuse`]: a CREATE made REUSE in place.
 
 use crate::object::{format as object_format, EntityLink};
 use crate::submessage::{flag, id, DataDeliveryControl, SubmessageHeader};
@@ -273,6 +273,18 @@ pub fn write_data_object_in_message(message: &[u8]) -> Option<ObjectId> {
     write_data_object(sub_id, message.get(SubmessageHeader::SIZE..)?)
 }
 
+/// Marks the CREATE whose bytes (header included) `submessage` holds REUSE, in place (an entity created again
+/// after the agent lost the session, kept if it still has it); false, nothing changed, for anything else.
+pub fn mark_reuse(submessage: &mut [u8]) -> bool {
+    match submessage {
+        [sub_id, flags, _, _, ..] if *sub_id == id::CREATE => {
+            *flags |= crate::submessage::CreationMode::REUSE_FLAG;
+            true
+        }
+        _ => false,
+    }
+}
+
 /// The header of a FRAGMENT submessage. A writer that fills a fragment chunk by chunk writes it with the
 /// length known so far and patches it in place ([`FragmentHead::set_in`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -412,6 +424,17 @@ mod tests {
             assert_eq!(r.spec.preferred_stream_id, 0x80);
             assert_eq!(r.spec.delivery_control, ctl.copied());
         }
+    }
+
+    #[test]
+    fn mark_reuse_sets_the_create_flag_only() {
+        let mut create = [id::CREATE, flag::ENDIANNESS, 0, 0, 1, 2];
+        assert!(mark_reuse(&mut create));
+        assert_eq!(create, [id::CREATE, 0x03, 0, 0, 1, 2]);
+        let mut data = [id::WRITE_DATA, flag::ENDIANNESS, 0, 0];
+        assert!(!mark_reuse(&mut data));
+        assert_eq!(data[1], flag::ENDIANNESS);
+        assert!(!mark_reuse(&mut [id::CREATE, 1]));
     }
 
     #[test]

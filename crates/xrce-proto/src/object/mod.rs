@@ -159,6 +159,12 @@ impl<'a> ClientRepresentation<'a> {
         }
     }
 
+    /// The `mtu` field of a client whose transport carries `transport_mtu` bytes, as eProsima's client fills it:
+    /// 4 bytes less (`INTERNAL_RELIABLE_BUFFER_OFFSET`, the length word of its stream slots), `u16::MAX` above.
+    pub fn mtu_for(transport_mtu: usize) -> u16 {
+        u16::try_from(transport_mtu.saturating_sub(4)).unwrap_or(u16::MAX)
+    }
+
     /// Value of property `name`, if present.
     pub fn property(&self, name: &str) -> Option<&'a str> {
         self.properties.as_ref()?.iter().find(|p| p.name == name).map(|p| p.value)
@@ -316,5 +322,17 @@ impl Encode for ObjectVariant<'_> {
             Self::Agent(a) => a.encode(w),
             Self::Client(c) => c.encode(w),
         }
+    }
+}
+
+#[cfg(test)]
+mod client_representation_tests {
+    use super::ClientRepresentation;
+
+    #[test]
+    fn mtu_field_is_the_transport_mtu_minus_the_slot_word() {
+        assert_eq!(ClientRepresentation::mtu_for(512), 508);
+        assert_eq!(ClientRepresentation::mtu_for(2), 0);
+        assert_eq!(ClientRepresentation::mtu_for(1 << 20), u16::MAX);
     }
 }

@@ -10,6 +10,8 @@
 //! * [`Sender`]: the sending side's counters, selective and deferred retransmission, HEARTBEATs.
 //! * [`Probe`], [`Rtt`]: round-trip estimate and tail-loss probes.
 //! * [`FragmentPlan`], [`Reassembler`]: cutting a submessage into FRAGMENTs and joining them.
+//! * [`InPlaceJoin`], [`StoredFragment`], [`FragmentPlan::continuing`]: the same for messages kept in
+//!   eProsima's slot layout, joined inside the buffer that holds them.
 //! * [`Instant`], [`Duration`]: microseconds, from whatever clock the caller has.
 //! * [`FaultRng`]: seeded faults for tests of all this over a lossy link.
 
@@ -19,6 +21,7 @@ mod input;
 mod output;
 mod probe;
 mod seq;
+mod slots;
 mod time;
 
 pub use fault::FaultRng;
@@ -27,6 +30,7 @@ pub use input::{AckNackBits, InputWindow, Nacked};
 pub use output::{SendLog, Sender, DEFAULT_RETRANSMIT_FLOOR, MAX_RETRANSMIT_INTERVAL};
 pub use probe::{Probe, Rtt, PROBE_FLOOR};
 pub use seq::SeqNum;
+pub use slots::{InPlaceJoin, StoredFragment};
 pub use time::{Duration, Instant};
 
 /// Size of a FRAGMENT submessage header.

@@ -316,6 +316,18 @@ impl AckNack {
     }
 }
 
+impl AckNack {
+    /// The ACKNACK of reliable stream `stream_id` saying what `bits` says (the bitmap goes big endian).
+    pub const fn from_bits(bits: crate::reliable::AckNackBits, stream_id: u8) -> Self {
+        Self { first_unacked_seq_num: bits.first_unacked.0, nack_bitmap: bits.nack_bitmap(), stream_id }
+    }
+
+    /// What it says, as the reliable engine reads it.
+    pub const fn bits(&self) -> crate::reliable::AckNackBits {
+        crate::reliable::AckNackBits::from_wire(self.first_unacked_seq_num, self.nack_bitmap)
+    }
+}
+
 /// HEARTBEAT for a reliable stream (5 bytes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub struct Heartbeat {
@@ -339,3 +351,18 @@ pub struct TimestampReply {
     pub originate_timestamp: Time,
 }
 codec_struct!(TimestampReply { transmit_timestamp: Time, receive_timestamp: Time, originate_timestamp: Time });
+
+#[cfg(test)]
+mod acknack_tests {
+    use super::AckNack;
+    use crate::reliable::{AckNackBits, SeqNum};
+
+    #[test]
+    fn acknack_carries_the_bitmap_big_endian() {
+        let bits = AckNackBits { first_unacked: SeqNum(0x0102), bitmap: 0b1000_0000_0000_0101 };
+        let ack = AckNack::from_bits(bits, 0x80);
+        assert_eq!(ack, AckNack { first_unacked_seq_num: 0x0102, nack_bitmap: [0x80, 0x05], stream_id: 0x80 });
+        assert_eq!(ack.bits(), bits);
+        assert_eq!(ack.bitmap(), bits.bitmap);
+    }
+}
