@@ -1,10 +1,9 @@
 //! Reliable input stream (spec §9.4): in-order delivery over `history` slots, ACKNACK contents, reassembly of
 //! fragmented messages.
 
-use super::{fragment_info, slot_size, SLOT_LEN_WORD, SUBHEADER};
+use super::{fragment_info, slot_size, SLOT_LEN_WORD};
 use crate::error::{Error, Result};
-use xrce_proto::reliable::{InputWindow, SeqNum};
-use xrce_proto::{MessageHeader, SubmessageHeader};
+use xrce_proto::reliable::{InPlaceJoin, InputWindow, SeqNum};
 
 /// What [`InputReliable::receive`] decided for a message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -194,31 +193,18 @@ impl<'a> InputReliable<'a> {
 
     /// Joins the FRAGMENT payloads of `first..first+count` at the start of the buffer and returns their length.
     ///
-    /// The slots are rotated so the run is contiguous, then the payloads are moved down in place: no extra
-    /// memory. [`finish_assembly`](Self::finish_assembly) undoes the rotation.
+    /// The slots are rotated so the run is contiguous from slot 0, then the engine's [`InPlaceJoin`] moves the
+    /// payloads down in place: no extra memory. [`finish_assembly`](Self::finish_assembly) undoes the rotation.
     pub fn assemble(&mut self, first: u16, count: u16) -> usize {
         let shift = self.index(first) * self.slot;
         self.buf.rotate_left(shift);
-        let mut dest = 0usize;
+        let mut join = InPlaceJoin::new();
         for j in 0..usize::from(count) {
-            let base = j * self.slot;
+            let at = j * self.slot + SLOT_LEN_WORD;
             let len = self.len_at(j);
-            let msg_at = base + SLOT_LEN_WORD;
-            let hs = self.buf.get(msg_at).map_or(MessageHeader::MAX_SIZE, |&s| MessageHeader::size_for(s));
-            let sub = msg_at + hs;
-            let sublen = self
-                .buf
-                .get(sub..)
-                .and_then(<[u8]>::first_chunk::<{ SubmessageHeader::SIZE }>)
-                .map_or(0, |h| usize::from(SubmessageHeader::from_bytes(*h).length));
-            let n = sublen.min(len.saturating_sub(hs + SUBHEADER));
-            let from = sub + SUBHEADER;
-            if from + n <= self.buf.len() {
-                self.buf.copy_within(from..from + n, dest);
-                dest += n;
-            }
+            join.push(self.buf, at..at + len);
         }
-        dest
+        join.len()
     }
 
     /// The bytes [`assemble`](Self::assemble) joined.
@@ -231,5 +217,48 @@ impl<'a> InputReliable<'a> {
         let shift = self.index(first) * self.slot;
         self.buf.rotate_right(shift);
         self.release(first, count);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use xrce_proto::view::FragmentHead;
+
+    /// A message of session 0x81 on stream 0x80 carrying `sub` after its header.
+    fn message(seq_nr: u16, sub: &[u8]) -> Vec<u8> {
+        let [s0, s1] = seq_nr.to_le_bytes();
+        let mut m = vec![0x81, 0x80, s0, s1];
+        m.extend_from_slice(sub);
+        m
+    }
+
+    fn fragment(seq_nr: u16, chunk: &[u8], last: bool) -> Vec<u8> {
+        let head = FragmentHead { last, chunk_len: u16::try_from(chunk.len()).unwrap() }.to_bytes();
+        message(seq_nr, &[&head[..], chunk].concat())
+    }
+
+    #[test]
+    fn a_run_across_the_ring_end_joins_in_place_and_spares_later_messages() {
+        let mut buf = [0u8; 8 * 32];
+        let mut s = InputReliable::new(&mut buf, 8).unwrap();
+        for seq_nr in 0..6 {
+            assert_eq!(s.receive(seq_nr, &message(seq_nr, &[0x0B, 1, 0, 0])), Received::Now);
+            s.handled(seq_nr);
+        }
+        // Message 9 arrives first and waits in slot 1; the run 6, 7, 8 takes slots 6, 7 and 0.
+        let later = message(9, &[0x0B, 1, 1, 0, 0x42]);
+        assert_eq!(s.receive(9, &later), Received::Stored);
+        let chunks: [&[u8]; 3] = [b"0123456789abcdefghij", b"ABCDEFGHIJKLMNOPQRST", b"xyz"];
+        for (i, c) in chunks.iter().enumerate() {
+            let seq_nr = 6 + u16::try_from(i).unwrap();
+            assert_eq!(s.receive(seq_nr, &fragment(seq_nr, c, i == 2)), Received::Stored);
+        }
+        assert_eq!(s.next_ready(), Some(Ready::Fragments { first: 6, count: 3 }));
+        let len = s.assemble(6, 3);
+        assert_eq!(s.assembled(len), chunks.concat());
+        s.finish_assembly(6, 3);
+        assert_eq!(s.next_ready(), Some(Ready::Message(9)));
+        assert_eq!(s.message(9), Some(&later[..]));
     }
 }

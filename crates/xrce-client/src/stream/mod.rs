@@ -17,6 +17,7 @@ pub use output_reliable::{
     OutputReliable, DEFAULT_RETRANSMIT_FLOOR_NS, HEARTBEAT_PERIOD_NS, MAX_RETRANSMIT_INTERVAL_NS, PROBE_FLOOR_NS,
 };
 
+use xrce_proto::reliable::StoredFragment;
 use xrce_proto::MessageHeader;
 
 /// Serial-number arithmetic on 16-bit sequence numbers (spec §9.1), over the engine's
@@ -105,8 +106,7 @@ impl<'p> Parts<'p> {
 /// Whether a stored message is fragmented and, if so, whether it carries the last fragment: the C client looks
 /// only at the first submessage after the header (spec §9.4).
 pub(crate) fn fragment_info(msg: &[u8]) -> Option<bool> {
-    let hs = MessageHeader::size_for(*msg.first()?);
-    xrce_proto::view::FragmentHead::parse(msg.get(hs..)?).map(|f| f.last)
+    StoredFragment::parse(msg).map(|f| f.last)
 }
 
 #[cfg(test)]

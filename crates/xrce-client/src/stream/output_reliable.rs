@@ -360,8 +360,7 @@ impl<'a> OutputReliable<'a> {
             return Ok(());
         }
         let (first, first_off) = self.first_fragment_place(1);
-        let cap = self.slot_capacity();
-        let plan = FragmentPlan { first: cap - first_off - SUBHEADER, block: cap - self.header_len() - SUBHEADER };
+        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
         let extra = plan.count(total) - 1;
         if extra >= usize::from(self.slots.history) {
             return Err(Error::TooLarge);
