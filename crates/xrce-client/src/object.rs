@@ -5,9 +5,9 @@ pub use xrce_proto::submessage::DataDeliveryControl as DeliveryControl;
 pub use xrce_proto::{ObjectId, ObjectKind};
 
 /// CREATE flag: keep an existing object that matches (`UXR_REUSE`).
-pub const REUSE: u8 = 0x02;
+pub const REUSE: u8 = xrce_proto::submessage::CreationMode::REUSE_FLAG;
 /// CREATE flag: replace an existing object (`UXR_REPLACE`).
-pub const REPLACE: u8 = 0x04;
+pub const REPLACE: u8 = xrce_proto::submessage::CreationMode::REPLACE_FLAG;
 
 /// `uxr_object_id`: the id of object number `id` (12 bits) of `kind`.
 pub const fn object_id(id: u16, kind: ObjectKind) -> ObjectId {

@@ -16,7 +16,7 @@ use xrce_client::prelude::*;
 use xrce_client::session::MILLIS;
 use xrce_client::stream::{InputReliable, OutputReliable, Ready, Received};
 use xrce_proto::message::Submessages;
-use xrce_proto::reliable::FaultRng as Rng;
+use xrce_proto::reliable::{AckNackBits, FaultRng as Rng};
 use xrce_proto::{ClientKey, MessageHeader, Submessage};
 
 /// One direction of the link: packets with their delivery time.
@@ -101,7 +101,7 @@ struct AgentPeer<'a> {
     received: Vec<Vec<u8>>,
     frag: Vec<u8>,
     /// ACKNACKs to send, one per reliable message or HEARTBEAT received, as eProsima's agent does.
-    acks: VecDeque<(u16, u16)>,
+    acks: VecDeque<AckNackBits>,
 }
 
 impl AgentPeer<'_> {
@@ -175,9 +175,9 @@ impl AgentPeer<'_> {
             out[4..13].copy_from_slice(&body);
             Some(13)
         };
-        if let Some((first, bitmap)) = self.acks.pop_front() {
-            let [f0, f1] = first.to_le_bytes();
-            let [b0, b1] = bitmap.to_be_bytes();
+        if let Some(ack) = self.acks.pop_front() {
+            let [f0, f1] = ack.first_unacked.0.to_le_bytes();
+            let [b0, b1] = ack.nack_bitmap();
             return control(out, [0x0A, 0x01, 0x05, 0x00, f0, f1, b0, b1, 0x80]);
         }
         if let Some(n) = self.output.poll_transmit(SESSION, KEY, STREAM, now, out) {

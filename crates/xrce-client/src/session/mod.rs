@@ -28,8 +28,8 @@ use xrce_proto::message::{encode_single, Submessages};
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{info_mask, AckNack, ActivityInfo, DataFormat, GetInfo, Heartbeat, Info};
 use xrce_proto::{
-    BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId, ObjectKind, RequestId, ResultStatus,
-    SampleIdentity, StatusCode, StreamId, StreamKind, Submessage, Time,
+    is_session_none, session_none_for, BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId,
+    ObjectKind, RequestId, ResultStatus, SampleIdentity, StatusCode, StreamId, StreamKind, Submessage, Time,
 };
 
 /// One millisecond in the core's time unit.
@@ -620,7 +620,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     pub fn handle_input<C: Callbacks + ?Sized>(&mut self, msg: &[u8], now: i64, cb: &mut C) {
         self.st.live.set_probe_answer(false);
         let Ok((header, hs)) = MessageHeader::decode(msg) else { return };
-        if RECONNECT && header.session_id & 0x7F == 0 && self.st.state == SessionState::Reconnecting {
+        if RECONNECT && is_session_none(header.session_id) && self.st.state == SessionState::Reconnecting {
             // An answer outside the session: an agent is there; unless it answers in the session too, it lost us.
             if first_info(msg, hs).is_some() {
                 self.st.live.agent_seen(now);
@@ -688,7 +688,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 None => return,
                 Some(ready::Message(seq_nr)) => {
                     if let Some(msg) = s.message(seq_nr) {
-                        let hs = msg.first().map_or(MessageHeader::MAX_SIZE, |&id| MessageHeader::size_for(id));
+                        let hs = MessageHeader::size_of_message(msg).unwrap_or(MessageHeader::MAX_SIZE);
                         process(&mut self.st, &mut [], msg, hs, stream, now, cb);
                     }
                     s.release(seq_nr, 1);
@@ -714,8 +714,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if let Some(retry) = st.session_retry.as_mut() {
             match (st.state, retry.due(now)) {
                 (SessionState::Creating, Some(true)) => {
-                    let header = MessageHeader::new(st.session_id & 0x80, StreamId::NONE, 0, st.key);
-                    let mtu = u16::try_from(st.mtu.saturating_sub(4)).unwrap_or(u16::MAX);
+                    let header = MessageHeader::new(session_none_for(st.session_id), StreamId::NONE, 0, st.key);
+                    let mtu = ClientRepresentation::mtu_for(st.mtu);
                     let mut rep = ClientRepresentation::new(st.key, st.session_id, mtu);
                     #[cfg(feature = "psk")]
                     let token =
@@ -807,9 +807,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         for (i, s) in self.in_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
-            let (first, bitmap) = s.acknack();
             let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
-            let ack = AckNack { first_unacked_seq_num: first, nack_bitmap: bitmap.to_be_bytes(), stream_id };
+            let ack = AckNack::from_bits(s.acknack(), stream_id);
             return encode_single(out, &header, &Submessage::AckNack(ack), Endianness::Little).ok();
         }
         for (i, s) in st.out_rel.iter_mut().enumerate() {

@@ -6,7 +6,9 @@ use crate::transport::Transport;
 use xrce_proto::cdr::Endianness;
 use xrce_proto::message::{encode_single, parse};
 use xrce_proto::submessage::{info_mask, ActivityInfo, GetInfo, Info};
-use xrce_proto::{BaseObjectRequest, ClientKey, MessageHeader, ObjectId, RequestId, StreamId, Submessage};
+use xrce_proto::{
+    BaseObjectRequest, ClientKey, MessageHeader, ObjectId, RequestId, StreamId, Submessage, SESSION_ID_NONE_WITHOUT_KEY,
+};
 
 /// Size of a GET_INFO message without session.
 pub const GET_INFO_LEN: usize = 16;
@@ -14,7 +16,7 @@ pub const GET_INFO_LEN: usize = 16;
 /// Writes the out-of-session GET_INFO with `request_id` and `mask` (ping: 10 and ACTIVITY; discovery: 9 and
 /// CONFIGURATION | ACTIVITY) into `out`; its length.
 pub fn encode_get_info(request_id: RequestId, mask: u32, out: &mut [u8]) -> Option<usize> {
-    let header = MessageHeader::new(0x80, StreamId::NONE, 0, ClientKey::INVALID);
+    let header = MessageHeader::new(SESSION_ID_NONE_WITHOUT_KEY, StreamId::NONE, 0, ClientKey::INVALID);
     let get = GetInfo { request: BaseObjectRequest { request_id, object_id: ObjectId::AGENT }, info_mask: mask };
     encode_single(out, &header, &Submessage::GetInfo(get), Endianness::Little).ok()
 }

@@ -6,10 +6,10 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use crate::object::REUSE;
 use crate::stream::seq;
 use xrce_proto::message::{RawSubmessage, Submessages};
-use xrce_proto::submessage::{flag, id, DataDeliveryControl};
+use xrce_proto::submessage::DataDeliveryControl;
+use xrce_proto::view::{mark_reuse, submessage_id, SubmessageId};
 use xrce_proto::{MessageHeader, ObjectId, ObjectVariant, StreamId, StreamKind, Submessage};
 
 /// Largest reassembled submessage kept (the client never sends more; a bound all the same).
@@ -74,13 +74,13 @@ impl Replay {
         }
         for raw in Submessages::new(msg, hs) {
             let Ok(raw) = raw else { return };
-            if raw.header.id == id::FRAGMENT {
+            if let Some(last) = raw.fragment_last() {
                 let buf = self.fragments.entry(stream.0).or_default();
                 buf.extend_from_slice(raw.payload());
                 if buf.len() > MAX_REASSEMBLED {
                     buf.clear();
                 }
-                if raw.header.flags & flag::LAST_FRAGMENT != 0 {
+                if last {
                     let whole = std::mem::take(buf);
                     for inner in Submessages::new(&whole, 0).map_while(Result::ok) {
                         self.submessage(stream, &inner);
@@ -93,11 +93,11 @@ impl Replay {
     }
 
     fn submessage(&mut self, stream: StreamId, raw: &RawSubmessage<'_>) {
-        if !matches!(raw.header.id, id::CREATE | id::DELETE | id::READ_DATA) {
+        if !matches!(raw.id(), Some(SubmessageId::Create | SubmessageId::Delete | SubmessageId::ReadData)) {
             return;
         }
         let Ok(sub) = raw.decode() else { return };
-        let bytes = || raw.message.get(raw.start.saturating_sub(4)..raw.end).unwrap_or(&[]).to_vec();
+        let bytes = || raw.bytes().to_vec();
         match sub {
             Submessage::Create(c) => {
                 let object = c.request.object_id;
@@ -151,9 +151,7 @@ impl Replay {
         let leftover: Vec<Item> = self.pending.drain(..).filter(|i| i.taken).collect();
         for e in &self.entities {
             let mut bytes = e.bytes.clone();
-            if let Some(flags) = bytes.get_mut(1) {
-                *flags |= REUSE;
-            }
+            mark_reuse(&mut bytes);
             self.pending.push_back(Item { stream: e.stream, bytes, taken: false });
         }
         for r in &self.reads {
@@ -180,21 +178,22 @@ impl Unacked {
     /// One taken message (its bytes after the header).
     pub(super) fn message(&mut self, stream: StreamId, body: &[u8]) {
         for raw in Submessages::new(body, 0).map_while(Result::ok) {
-            if raw.header.id == id::FRAGMENT {
+            if let Some(last) = raw.fragment_last() {
                 self.fragments.extend_from_slice(raw.payload());
-                if raw.header.flags & flag::LAST_FRAGMENT != 0 {
+                if last {
                     let whole = std::mem::take(&mut self.fragments);
                     self.keep(stream, &whole);
                 }
             } else {
-                let bytes = raw.message.get(raw.start.saturating_sub(4)..raw.end).unwrap_or(&[]);
-                self.keep(stream, bytes);
+                self.keep(stream, raw.bytes());
             }
         }
     }
 
     fn keep(&mut self, stream: StreamId, submessage: &[u8]) {
-        if !matches!(submessage.first(), Some(&(id::CREATE | id::READ_DATA)) | None) {
+        if !submessage.is_empty()
+            && !matches!(submessage_id(submessage), Some(SubmessageId::Create | SubmessageId::ReadData))
+        {
             self.items.push(Item { stream, bytes: submessage.to_vec(), taken: true });
         }
     }

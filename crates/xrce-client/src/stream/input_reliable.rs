@@ -3,7 +3,7 @@
 
 use super::{fragment_info, slot_size, SLOT_LEN_WORD};
 use crate::error::{Error, Result};
-use xrce_proto::reliable::{InPlaceJoin, InputWindow, SeqNum};
+use xrce_proto::reliable::{AckNackBits, InPlaceJoin, InputWindow, SeqNum};
 
 /// What [`InputReliable::receive`] decided for a message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -138,9 +138,9 @@ impl<'a> InputReliable<'a> {
         self.ack_pending
     }
 
-    /// The ACKNACK to send now (`first_unacked`, bitmap as a u16 whose bit i is `first_unacked + i`); clears the
+    /// The ACKNACK to send now (`first_unacked`, and the bitmap whose bit i is `first_unacked + i`); clears the
     /// pending flag.
-    pub fn acknack(&mut self) -> (u16, u16) {
+    pub fn acknack(&mut self) -> AckNackBits {
         self.ack_pending = false;
         let mut first = self.window.next().0;
         for _ in 0..self.history {
@@ -149,8 +149,7 @@ impl<'a> InputReliable<'a> {
             }
             first = first.wrapping_add(1);
         }
-        let ack = self.window.acknack(SeqNum(first), |s| !self.in_window(s.0) || self.len_of(s.0) == 0);
-        (ack.first_unacked.0, ack.bitmap)
+        self.window.acknack(SeqNum(first), |s| !self.in_window(s.0) || self.len_of(s.0) == 0)
     }
 
     /// What can be processed next, if anything.

@@ -49,11 +49,6 @@ pub(crate) const SLOT_LEN_WORD: usize = 4;
 /// Largest submessage header.
 pub(crate) const SUBHEADER: usize = xrce_proto::SubmessageHeader::SIZE;
 
-/// Rounds `n` up to a multiple of 4 (submessages start 4-aligned from the message start).
-pub(crate) const fn align4(n: usize) -> usize {
-    (n + 3) & !3
-}
-
 /// Checks the history rules of the C API: a power of two that divides the buffer, each slot big enough to
 /// hold a header, a submessage header and some data. Returns the slot size.
 pub(crate) fn slot_size(buffer_len: usize, history: usize) -> Option<usize> {

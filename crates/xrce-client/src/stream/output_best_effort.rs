@@ -1,8 +1,9 @@
 //! Best-effort output stream (spec §9.2): submessages accumulate in one buffer that a flush sends as one
 //! message with the next sequence number.
 
-use super::{align4, seq, Parts, SUBHEADER};
+use super::{seq, Parts, SUBHEADER};
 use crate::error::{Error, Result};
+use xrce_proto::message::submessage_start;
 use xrce_proto::{ClientKey, MessageHeader, StreamId};
 
 /// A best-effort output stream over a caller's buffer.
@@ -41,7 +42,7 @@ impl<'a> OutputBestEffort<'a> {
         if self.len == 0 {
             self.header_size
         } else {
-            align4(self.len)
+            submessage_start(self.len)
         }
     }
 
@@ -90,7 +91,7 @@ impl<'a> OutputBestEffort<'a> {
         if !self.flush || self.len == 0 {
             return None;
         }
-        let len = align4(self.len);
+        let len = submessage_start(self.len);
         let dst = out.get_mut(..len)?;
         let seq_nr = self.last_sent.wrapping_add(1);
         let header = MessageHeader::new(session_id, stream, seq_nr, key);
