@@ -37,27 +37,27 @@ use xrce_proto::submessage::DataDeliveryControl;
 pub const TIMEOUT_INF: i32 = -1;
 
 /// `UXR_STATUS_OK`.
-pub const STATUS_OK: u8 = 0x00;
+pub const STATUS_OK: u8 = xrce_proto::StatusCode::OK.0;
 /// `UXR_STATUS_OK_MATCHED`.
-pub const STATUS_OK_MATCHED: u8 = 0x01;
+pub const STATUS_OK_MATCHED: u8 = xrce_proto::StatusCode::OK_MATCHED.0;
 /// `UXR_STATUS_ERR_DDS_ERROR`.
-pub const STATUS_ERR_DDS_ERROR: u8 = 0x80;
+pub const STATUS_ERR_DDS_ERROR: u8 = xrce_proto::StatusCode::ERR_DDS_ERROR.0;
 /// `UXR_STATUS_ERR_MISMATCH`.
-pub const STATUS_ERR_MISMATCH: u8 = 0x81;
+pub const STATUS_ERR_MISMATCH: u8 = xrce_proto::StatusCode::ERR_MISMATCH.0;
 /// `UXR_STATUS_ERR_ALREADY_EXISTS`.
-pub const STATUS_ERR_ALREADY_EXISTS: u8 = 0x82;
+pub const STATUS_ERR_ALREADY_EXISTS: u8 = xrce_proto::StatusCode::ERR_ALREADY_EXISTS.0;
 /// `UXR_STATUS_ERR_DENIED`.
-pub const STATUS_ERR_DENIED: u8 = 0x83;
+pub const STATUS_ERR_DENIED: u8 = xrce_proto::StatusCode::ERR_DENIED.0;
 /// `UXR_STATUS_ERR_UNKNOWN_REFERENCE`.
-pub const STATUS_ERR_UNKNOWN_REFERENCE: u8 = 0x84;
+pub const STATUS_ERR_UNKNOWN_REFERENCE: u8 = xrce_proto::StatusCode::ERR_UNKNOWN_REFERENCE.0;
 /// `UXR_STATUS_ERR_INVALID_DATA`.
-pub const STATUS_ERR_INVALID_DATA: u8 = 0x85;
+pub const STATUS_ERR_INVALID_DATA: u8 = xrce_proto::StatusCode::ERR_INVALID_DATA.0;
 /// `UXR_STATUS_ERR_INCOMPATIBLE`.
-pub const STATUS_ERR_INCOMPATIBLE: u8 = 0x86;
+pub const STATUS_ERR_INCOMPATIBLE: u8 = xrce_proto::StatusCode::ERR_INCOMPATIBLE.0;
 /// `UXR_STATUS_ERR_RESOURCES`.
-pub const STATUS_ERR_RESOURCES: u8 = 0x87;
+pub const STATUS_ERR_RESOURCES: u8 = xrce_proto::StatusCode::ERR_RESOURCES.0;
 /// `UXR_STATUS_NONE`: no status received (yet).
-pub const STATUS_NONE: u8 = 0xFF;
+pub const STATUS_NONE: u8 = xrce_proto::StatusCode::NONE.0;
 
 /// Direction of a stream (`uxrStreamDirection`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
