@@ -153,9 +153,13 @@ fn xrce_client_publishes_to_fastdds_and_cyclone() {
     stop.store(true, Ordering::Relaxed);
     let written = publisher.join().expect("publisher");
     println!("xrce client wrote {written} samples");
-    assert!(ok_c && out_c.contains("cyclone-py received total 10"), "Cyclone got 10");
+    // A peer stops once it holds 10 samples; Cyclone's script takes up to 10 at a time, so it may hold more.
+    let total = |out: &str, prefix: &str| -> usize {
+        out.lines().find_map(|l| l.strip_prefix(prefix)).and_then(|n| n.trim().parse().ok()).unwrap_or(0)
+    };
+    assert!(ok_c && total(&out_c, "cyclone-py received total") >= 10, "Cyclone got 10");
     assert!(out_c.contains("Hello from the Rust XRCE client"));
-    assert!(ok_f && out_f.contains("fastdds received total 10"), "Fast DDS got 10");
+    assert!(ok_f && total(&out_f, "fastdds received total") >= 10, "Fast DDS got 10");
     assert!(out_f.contains("message='Hello from the Rust XRCE client'"));
 }
 

@@ -69,15 +69,21 @@ fn bridge_publishes_to_fastdds_and_cyclone_subscribers() {
     let _ = w.wait_for_acknowledgments(Duration::from_secs(5));
     let (ok_c, out_c) = finish(cyc, "cyclone sub");
     let (ok_f, out_f) = finish(fdds, "fastdds sub");
-    assert!(ok_c && out_c.contains("cyclone-py received total 10"), "Cyclone got 10");
+    // A peer stops once it holds 10 samples; Cyclone's script takes up to 10 at a time, so it may hold more.
+    assert!(ok_c && received_total(&out_c, "cyclone-py received total") >= 10, "Cyclone got 10");
     assert!(out_c.contains("Hello from the XRCE bridge"));
-    assert!(ok_f && out_f.contains("fastdds received total 10"), "Fast DDS got 10");
+    assert!(ok_f && received_total(&out_f, "fastdds received total") >= 10, "Fast DDS got 10");
     assert!(out_f.contains("message='Hello from the XRCE bridge'"));
     for (name, out) in [("cyclone", &out_c), ("fastdds", &out_f)] {
         let got = received_indices(out);
-        assert_eq!(got.len(), 10, "{name}: {got:?}");
+        assert!(got.len() >= 10, "{name}: {got:?}");
         assert!(got.windows(2).all(|w| w[1] == w[0] + 1), "{name} received with a gap: {got:?}");
     }
+}
+
+/// The count a peer printed after `prefix` (0 when absent).
+fn received_total(out: &str, prefix: &str) -> usize {
+    out.lines().find_map(|l| l.strip_prefix(prefix)).and_then(|n| n.trim().parse().ok()).unwrap_or(0)
 }
 
 /// The `index=N` values a HelloWorld peer printed for its received samples, in order.
