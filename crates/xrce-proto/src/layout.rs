@@ -65,6 +65,16 @@ impl SampleBody<'_> {
         }
     }
 
+    /// Writes the body at the start of `out` (for a payload a caller frames itself); returns its length.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] with the size needed.
+    pub fn emit_into(&self, out: &mut [u8]) -> Result<usize> {
+        let mut w = Writer::new(out, Endianness::Little);
+        self.write(&mut w);
+        w.finish()
+    }
+
     /// Writes the body at the writer's position (little endian, as both eProsima sides write it).
     fn write(&self, w: &mut Writer<'_>) {
         match self {
@@ -216,7 +226,11 @@ mod tests {
         let payload = decode_data(&REPLIER_DATA);
         let (identity, data) = payload.split_sample_identity().unwrap();
         assert_eq!(identity.sequence_number, SequenceNumber { high: 0, low: 3 });
-        let sub = DataSubmessage::data(payload.request, SampleBody::WithIdentity { identity, data });
+        let body = SampleBody::WithIdentity { identity, data };
+        let mut alone = [0u8; 32];
+        assert_eq!(body.emit_into(&mut alone), Ok(32));
+        assert_eq!(alone, REPLIER_DATA[8..]);
+        let sub = DataSubmessage::data(payload.request, body);
         assert_eq!(sub.encoded_len(), REPLIER_DATA.len());
         let mut out = [0xEE; 48];
         assert_eq!(sub.emit_into(&mut out), Ok(REPLIER_DATA.len()));
@@ -237,7 +251,9 @@ mod tests {
     #[test]
     fn plain_write_data_decodes_back_and_short_buffers_say_what_they_need() {
         let request = BaseObjectRequest { request_id: RequestId(0x0e), object_id: ObjectId([0x00, 0x17]) };
-        let sub = DataSubmessage::write_data(request, SampleBody::Plain(&[1, 0, 0, 0, 1, 0, 0, 0]));
+        let body = SampleBody::Plain(&[1, 0, 0, 0, 1, 0, 0, 0]);
+        assert_eq!(body.emit_into(&mut [0u8; 7]), Err(Error::BufferTooSmall { needed: 8 }));
+        let sub = DataSubmessage::write_data(request, body);
         let mut out = [0u8; 16];
         assert_eq!(sub.emit_into(&mut out), Ok(16));
         // Packet 21 of the capture, after its message header.
