@@ -39,6 +39,7 @@ use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};
 
+use xrce_proto::layout;
 use xrce_proto::{ClientKey, MessageHeader, ObjectId, StatusCode};
 
 pub use config::CoreConfig;
@@ -556,7 +557,7 @@ fn client_outbox<E: Copy>(client: &mut Box<Connection<E>>) -> (&mut outbox::Outb
 }
 
 /// Encodes `header` + one submessage.
-fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
+pub(crate) fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
     let mut buf = Vec::new();
     encode_into(&mut buf, header, sub).then_some(buf)
 }
@@ -567,7 +568,9 @@ fn encode_into(buf: &mut Vec<u8>, header: &MessageHeader, sub: &xrce_proto::Subm
     buf.resize(buf.capacity().clamp(64, 256), 0);
     let n = match xrce_proto::message::encode_single(buf, header, sub, xrce_proto::Endianness::Little) {
         Ok(n) => n,
-        Err(xrce_proto::cdr::Error::BufferTooSmall { needed }) if needed <= 65_535 + 8 => {
+        Err(xrce_proto::cdr::Error::BufferTooSmall { needed })
+            if needed <= layout::MAX_SINGLE_SUBMESSAGE_MESSAGE_LEN =>
+        {
             buf.resize(needed, 0);
             match xrce_proto::message::encode_single(buf, header, sub, xrce_proto::Endianness::Little) {
                 Ok(n) => n,
@@ -583,14 +586,21 @@ fn encode_into(buf: &mut Vec<u8>, header: &MessageHeader, sub: &xrce_proto::Subm
     true
 }
 
-/// Encodes one submessage (header included) as it would sit after a message header of `header_len` bytes.
-fn encode_submessage(header_len: usize, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
-    let header = MessageHeader::new(
-        if header_len == 8 { 0x01 } else { 0x81 },
-        xrce_proto::StreamId::NONE,
-        0,
-        ClientKey::INVALID,
-    );
-    let mut msg = encode_message(&header, sub)?;
-    Some(msg.split_off(header_len))
+/// Encodes one submessage (header included) as it will sit at byte `at` of its message (after a message
+/// header of `at` bytes).
+fn encode_submessage(at: usize, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
+    let mut buf = vec![0u8; 64];
+    let n = match layout::encode_submessage(&mut buf, at, sub, xrce_proto::Endianness::Little) {
+        Ok(n) => n,
+        Err(xrce_proto::cdr::Error::BufferTooSmall { needed }) if needed <= layout::MAX_SUBMESSAGE_LEN => {
+            buf.resize(needed, 0);
+            layout::encode_submessage(&mut buf, at, sub, xrce_proto::Endianness::Little).ok()?
+        }
+        Err(e) => {
+            tracing::warn!("cannot encode {}: {e}", sub.id());
+            return None;
+        }
+    };
+    buf.truncate(n);
+    Some(buf)
 }

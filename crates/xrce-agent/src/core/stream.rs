@@ -4,6 +4,7 @@
 
 use std::collections::VecDeque;
 
+use xrce_proto::layout::submessage_offset;
 use xrce_proto::reliable::{self, AckNackBits, FragmentPlan, FragmentSink, InputWindow, Reassembler, Reassembly};
 use xrce_proto::reliable::{SendLog, Sender, SeqNum};
 use xrce_proto::submessage::{AckNack, Heartbeat};
@@ -398,13 +399,13 @@ impl ReliableOut {
             msg.extend_from_slice(&body);
             pool.put(body);
             while let Some(next) = self.pending.front() {
-                let pad = (4 - msg.len() % 4) % 4;
-                if !pack || !packable(next) || msg.len() + pad + next.len() > mtu {
+                let at = submessage_offset(msg.len());
+                if !pack || !packable(next) || at + next.len() > mtu {
                     break;
                 }
                 let Some(next) = self.pending.pop_front() else { break };
                 self.pending_bytes = self.pending_bytes.saturating_sub(next.len());
-                msg.resize(msg.len() + pad, 0);
+                msg.resize(at, 0);
                 msg.extend_from_slice(&next);
                 pool.put(next);
             }
