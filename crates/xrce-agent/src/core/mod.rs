@@ -11,12 +11,12 @@
 //! the shell, and wall-clock time (TIMESTAMP_REPLY) from the anchor set with [`AgentCore::set_wall_clock`].
 //! `E` is whatever identifies a peer for the shell (a socket address, a connection id).
 
-pub mod auth;
+mod auth;
 mod clients;
-pub mod config;
+mod config;
 mod connection;
 mod deliver;
-pub mod droplog;
+mod droplog;
 mod entities;
 mod input;
 mod liveness;
@@ -42,7 +42,11 @@ use std::time::{Duration, Instant};
 use xrce_proto::layout;
 use xrce_proto::{ClientKey, MessageHeader, ObjectId, StatusCode};
 
-pub use config::CoreConfig;
+pub use auth::{AddressMatch, AllowRule, AllowRuleError, AuthPolicy};
+pub use config::{
+    CoreConfig, DEFAULT_CLIENT_DEAD_TIME, DEFAULT_CLIENT_TIMEOUT, DEFAULT_HEARTBEAT_PERIOD, DEFAULT_MAX_CLIENTS,
+    DEFAULT_MAX_LIVELINESS_PROBES, DEFAULT_RELIABLE_WINDOW, DEFAULT_SUSPECT_GRACE,
+};
 use connection::{Connection, Ctx, Liveness};
 
 use crate::bufpool::BufPool;
@@ -52,7 +56,7 @@ use crate::middleware::Middleware;
 /// [`AgentCore::handle_datagram`]): under the 16 samples a CED topic keeps for best-effort readers, and above
 /// a publisher's usual window of 8, whose ACKNACK then leaves before its samples are delivered (8 here cost
 /// ~10 % of reliable 16 B throughput: interleaved runs, 12 won 6 of 8 pairs).
-pub const PUMP_AFTER_WRITES: usize = 12;
+const PUMP_AFTER_WRITES: usize = 12;
 
 /// A message for the shell to send.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -223,8 +227,8 @@ where
     }
 
     /// Handles one received message from `from`. Its samples reach readers at the end of the batch (the next
-    /// [`Self::poll_transmit`] or [`Self::end_batch`]), so several can share one message, or sooner once
-    /// [`PUMP_AFTER_WRITES`] samples wait.
+    /// [`Self::poll_transmit`]), so several can share one message, or sooner once a dozen samples wait
+    /// (`PUMP_AFTER_WRITES`).
     pub fn handle_datagram(&mut self, from: E, bytes: &[u8], now: Instant) {
         self.stats.datagrams_in = self.stats.datagrams_in.saturating_add(1);
         if self.wall_anchor.is_none() {
@@ -237,8 +241,8 @@ where
         }
     }
 
-    /// Runs the delivery deferred by [`Self::handle_datagram`] (also done by [`Self::poll_transmit`]).
-    pub fn end_batch(&mut self) {
+    /// Runs the delivery deferred by [`Self::handle_datagram`] (done first by [`Self::poll_transmit`]).
+    fn end_batch(&mut self) {
         if let (Some(_), Some(now)) = (self.unserved_writes, self.last_now) {
             self.serve_readers(now);
         }
@@ -300,8 +304,9 @@ where
 
     /// The ACKNACKs owed for the reliable messages handled so far, one at a time, before the batch's samples
     /// are delivered: a shell can send them ahead of the rest, so a publisher whose history is full gets its
-    /// slots back without waiting for the deliveries to be built.
-    pub fn poll_acknack(&mut self) -> Option<Transmit<E>> {
+    /// slots back without waiting for the deliveries to be built. [`Self::poll_transmit`] yields them too; the
+    /// built-in shells call this first.
+    pub(crate) fn poll_acknack(&mut self) -> Option<Transmit<E>> {
         while let Some(key) = self.acking.pop_front() {
             let Some(client) = self.clients.get_mut(&key) else { continue };
             let ack = client.next_acknack(&mut self.pool);
@@ -363,6 +368,8 @@ where
     }
 
     /// Number of messages waiting in [`Self::poll_transmit`] (at least one while a batch awaits delivery).
+    /// For the integration tests' harness (`tests/common`), not an API: hidden from the documentation.
+    #[doc(hidden)]
     pub fn pending_transmits(&self) -> usize {
         let queued: usize = self.clients.values().map(|c| c.outbox.len() + c.acks_due.len()).sum();
         queued + self.stateless.len() + usize::from(self.unserved_writes.is_some())
