@@ -85,7 +85,7 @@ pub struct Config {
     /// Silence after which a client is removed with its entities (`--client-timeout`; ours); `None`: never.
     pub client_timeout: Option<std::time::Duration>,
     /// Client authentication (`--allow`, `--psk-file`; ours): off when empty.
-    pub auth: crate::core::auth::AuthPolicy,
+    pub auth: crate::core::AuthPolicy,
 }
 
 /// What `--dds-engine` selects: the DDS implementation behind `-m dds`.
@@ -375,7 +375,7 @@ struct CommonArgs {
     /// Authentication: only clients matching one of these may create a session (KEY: hexadecimal client
     /// key or *; ADDRESS: IP, IP/PREFIX or IP:PORT; none: any address). Repeatable.
     #[arg(long, value_name = "KEY[@ADDRESS]", action = clap::ArgAction::Append)]
-    allow: Vec<crate::core::auth::AllowRule>,
+    allow: Vec<crate::core::AllowRule>,
     /// Authentication: require in CREATE_CLIENT a token made with the pre-shared key in this file (its
     /// bytes, trailing whitespace removed; at least 16).
     #[arg(long, value_name = "FILE")]
@@ -541,7 +541,7 @@ impl Cli {
             eager_participant: common.eager_participant == OnOff::On,
             participant_names: common.participant_names == OnOff::On,
             client_timeout: Some(common.client_timeout).filter(|t| !t.is_zero()),
-            auth: crate::core::auth::AuthPolicy { allow: common.allow, psk },
+            auth: crate::core::AuthPolicy { allow: common.allow, psk },
         })
     }
 }

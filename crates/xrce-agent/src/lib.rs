@@ -4,11 +4,11 @@
 //! * [`middleware`]: the `Middleware` trait and the CED middleware.
 //! * [`transport`]: UDP and TCP shells around the core.
 //! * [`agent`]: the library API of eProsima's agent (`Agent`, `AgentInstance`).
-//! * [`bufpool`]: recycled byte buffers, shared by the core and the CED middleware.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 pub mod agent;
-pub mod bufpool;
+/// Recycled byte buffers, shared by the core and the CED middleware (internal).
+mod bufpool;
 pub mod cli;
 pub mod core;
 pub mod logging;

@@ -4,9 +4,16 @@ mod common;
 
 use std::time::Duration;
 
-use common::{create_client_msg, unlimited, Client, Harness, Out};
+use common::{create_client_msg, data_payload, unlimited, Client, Harness, Out};
+use xrce_proto::layout::SampleBody;
 use xrce_proto::submessage::DataDeliveryControl;
-use xrce_proto::{ObjectId, ObjectKind};
+use xrce_proto::{ObjectId, ObjectKind, Submessage};
+
+/// The first submessage of a client's message.
+fn decode_client(msg: &[u8]) -> Submessage<'_> {
+    let (_, mut subs) = xrce_proto::message::parse(msg).unwrap();
+    subs.next().unwrap().unwrap().decode().unwrap()
+}
 
 const PUB: u16 = 1;
 const SUB: u16 = 2;
@@ -137,19 +144,27 @@ fn request_reply_between_two_clients() {
     h.send(1, &req.read(requester, 0x80, unlimited()));
     h.send(2, &rep.read(replier, 0x80, unlimited()));
     let write = req.write(true, requester, &[1, 0, 0, 0, 2, 0, 0, 0]);
-    let request_id = u16::from_be_bytes([write[8], write[9]]);
+    let request_id = match decode_client(&write) {
+        Submessage::WriteData(w) => w.request.request_id.0,
+        other => panic!("{other:?}"),
+    };
     h.send(1, &write);
     let got = h.data(2);
     assert_eq!(got.len(), 1);
-    assert_eq!(&got[0][24..], &[1, 0, 0, 0, 2, 0, 0, 0]);
-    let mut reply = got[0][..24].to_vec();
-    reply.extend_from_slice(&3u32.to_le_bytes());
+    let (identity, request) = data_payload(&got[0]).split_sample_identity().unwrap();
+    assert_eq!(request, &[1, 0, 0, 0, 2, 0, 0, 0]);
+    let body = SampleBody::WithIdentity { identity, data: &3u32.to_le_bytes() };
+    let mut reply = vec![0u8; body.encoded_len()];
+    body.emit_into(&mut reply).unwrap();
     h.send(2, &rep.write(true, replier, &reply));
     let answers: Vec<(u16, Vec<u8>)> = h
         .outs(1)
         .into_iter()
         .filter_map(|o| match o {
-            Out::Data { data, .. } => Some((u16::from_be_bytes([data[0], data[1]]), data[4..].to_vec())),
+            Out::Data { data, .. } => {
+                let (related, reply) = data_payload(&data).split_base_request().unwrap();
+                Some((related.request_id.0, reply.to_vec()))
+            }
             _ => None,
         })
         .collect();

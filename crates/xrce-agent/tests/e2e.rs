@@ -6,9 +6,11 @@ use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, UdpSocket};
 use std::time::{Duration, Instant};
 
-use common::{create_client_msg, decode_owned, unlimited, Client, Out};
+use common::{acknack_msg, create_client_msg, decode_owned, unlimited, Client, Out};
 use xrce_agent::agent::{AgentHandle, AgentInstance};
 use xrce_agent::middleware::callbacks::CallbackKind;
+use xrce_proto::framing::tcp;
+use xrce_proto::view::SubmessageId;
 use xrce_proto::{ObjectId, ObjectKind};
 
 fn start(args: &[&str]) -> (AgentInstance, SocketAddr) {
@@ -52,22 +54,7 @@ impl UdpPeer {
                     self.next_rel += 1;
                     self.got.extend(subs);
                 }
-                let ack = [
-                    0x81,
-                    0,
-                    0,
-                    0,
-                    0x0A,
-                    0x01,
-                    0x05,
-                    0x00,
-                    self.next_rel as u8,
-                    (self.next_rel >> 8) as u8,
-                    0,
-                    0,
-                    0x80,
-                ];
-                self.socket.send_to(&ack, self.agent).unwrap();
+                self.socket.send_to(&acknack_msg(self.next_rel), self.agent).unwrap();
             } else {
                 self.got.extend(subs);
             }
@@ -141,15 +128,20 @@ fn udp6_pubsub() {
 }
 
 fn tcp_frame(m: &[u8]) -> Vec<u8> {
-    let mut v = (m.len() as u16).to_le_bytes().to_vec();
-    v.extend_from_slice(m);
+    let mut v = vec![0u8; tcp::PREFIX_LEN + m.len()];
+    tcp::encode(m, &mut v).unwrap();
     v
 }
 
 /// Takes the next whole length-prefixed message off the front of `pending`, if there is one.
 fn next_frame(pending: &mut Vec<u8>) -> Option<Vec<u8>> {
-    let len = usize::from(u16::from_le_bytes([*pending.first()?, *pending.get(1)?]));
-    (pending.len() >= 2 + len).then(|| pending.drain(..2 + len).skip(2).collect())
+    // A message is no longer than what is pending; a prefix announcing more reports `Oversized`: not yet.
+    let mut decoder = tcp::TcpDecoder::new(vec![0u8; pending.len()]);
+    let (used, event) = decoder.feed(pending);
+    let Some(tcp::TcpEvent::Message(msg)) = event else { return None };
+    let msg = msg.to_vec();
+    pending.drain(..used);
+    Some(msg)
 }
 
 /// Reads framed messages until `pred` holds or 5 s pass.
@@ -166,9 +158,7 @@ fn tcp_wait(stream: &mut TcpStream, got: &mut Vec<Out>, pending: &mut Vec<u8>, p
         while let Some(msg) = next_frame(pending) {
             let (h, subs) = decode_owned(&msg);
             if h.stream_id.0 == 0x80 {
-                let seq = h.sequence_nr + 1;
-                let ack = [0x81, 0, 0, 0, 0x0A, 0x01, 0x05, 0x00, seq as u8, (seq >> 8) as u8, 0, 0, 0x80];
-                stream.write_all(&tcp_frame(&ack)).unwrap();
+                stream.write_all(&tcp_frame(&acknack_msg(h.sequence_nr + 1))).unwrap();
             }
             got.extend(subs);
         }
@@ -337,7 +327,10 @@ fn throughput_udp_best_effort_64b() {
             let end = Instant::now() + Duration::from_secs(7);
             while Instant::now() < end {
                 if let Ok(n) = socket.recv(&mut buf) {
-                    if n > 8 && buf[4] == 9 {
+                    let first = xrce_proto::message::parse(&buf[..n]).ok().and_then(|(_, mut subs)| subs.next());
+                    if first.and_then(Result::ok).and_then(|s| SubmessageId::from_u8(s.header.id))
+                        == Some(SubmessageId::Data)
+                    {
                         counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     }
                 }

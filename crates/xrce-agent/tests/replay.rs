@@ -5,7 +5,20 @@ mod common;
 
 use std::time::Duration;
 
-use common::{load_capture, Harness, Out, Packet};
+use common::{data_payload as payload, load_capture, Harness, Out, Packet};
+use xrce_proto::layout::{DataSubmessage, SampleBody};
+use xrce_proto::{BaseObjectRequest, ObjectKind, Submessage};
+
+/// A replier's reply (a WRITE_DATA to a replier, first in its message): where the submessage starts, its
+/// request and the reply after the sample identity.
+fn replier_reply(msg: &[u8]) -> Option<(usize, BaseObjectRequest, &[u8])> {
+    let raw = xrce_proto::message::parse(msg).ok()?.1.next()?.ok()?;
+    let Submessage::WriteData(w) = raw.decode().ok()? else { return None };
+    if w.request.object_id.kind() != ObjectKind::Replier {
+        return None;
+    }
+    Some((raw.start - xrce_proto::SubmessageHeader::SIZE, w.request, w.split_sample_identity().ok()?.1))
+}
 
 /// Ports of clients whose messages contain submessage `id` (any position).
 fn ports_sending(packets: &[Packet], id: u8) -> Vec<u16> {
@@ -134,11 +147,15 @@ fn request_reply_capture_routes_requests_and_replies() {
             h.advance(d);
         }
         let mut data = p.data.clone();
-        if p.port == replier_port && data[4] == 7 && data[11] & 0x0F == 8 {
-            let requests = h.data(replier_port);
-            let identity = &requests[replies][..24];
-            data[12..36].copy_from_slice(identity);
-            replies += 1;
+        if p.port == replier_port {
+            if let Some((at, request, reply)) = replier_reply(&p.data) {
+                let requests = h.data(replier_port);
+                let (identity, _) = payload(&requests[replies]).split_sample_identity().unwrap();
+                let sub = DataSubmessage::write_data(request, SampleBody::WithIdentity { identity, data: reply });
+                let n = sub.emit_into(&mut data[at..]).unwrap();
+                assert_eq!(at + n, p.data.len(), "the same length, in place");
+                replies += 1;
+            }
         }
         h.send(p.port, &data);
     }
@@ -161,11 +178,11 @@ fn request_reply_capture_routes_requests_and_replies() {
                 match object & 0x0F {
                     8 => {
                         replier_got = true;
-                        assert_eq!(data.len(), 24 + 8);
+                        assert_eq!(payload(&data).split_sample_identity().unwrap().1.len(), 8);
                     }
                     7 => {
                         requester_got = true;
-                        assert_eq!(data.len(), 4 + 8);
+                        assert_eq!(payload(&data).split_base_request().unwrap().1.len(), 8);
                     }
                     k => panic!("unexpected DATA on kind {k}"),
                 }
@@ -226,10 +243,10 @@ fn timesync_capture_echoes_originate() {
     assert_eq!(replies.len(), 3);
     let sent: Vec<(i32, u32)> = packets
         .iter()
-        .filter(|p| p.to_agent && p.data.get(4) == Some(&14))
-        .map(|p| {
-            let d = &p.data[8..16];
-            (i32::from_le_bytes([d[0], d[1], d[2], d[3]]), u32::from_le_bytes([d[4], d[5], d[6], d[7]]))
+        .filter(|p| p.to_agent)
+        .filter_map(|p| match xrce_proto::message::parse(&p.data).ok()?.1.next()?.ok()?.decode().ok()? {
+            Submessage::Timestamp(t) => Some((t.seconds, t.nanoseconds)),
+            _ => None,
         })
         .collect();
     assert_eq!(replies, sent);

@@ -18,6 +18,7 @@ pub mod auth;
 pub mod cdr;
 pub mod framing;
 pub mod header;
+pub mod layout;
 pub mod message;
 pub mod object;
 pub mod reliable;

@@ -9,6 +9,7 @@ use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};
 
+use xrce_proto::layout::submessage_offset;
 use xrce_proto::{
     BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId, ResultStatus, StatusCode, StreamId,
     StreamKind, Submessage,
@@ -391,9 +392,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 // still queued and has room: one datagram for several samples.
                 if self.pack_data && stream.kind() == StreamKind::BestEffort {
                     if let Some(last) = self.outbox.open_message(stream.0) {
-                        let pad = (4 - last.len() % 4) % 4;
-                        if last.len() + pad + sub.len() <= self.mtu {
-                            last.resize(last.len() + pad, 0);
+                        let at = submessage_offset(last.len());
+                        if at + sub.len() <= self.mtu {
+                            last.resize(at, 0);
                             last.extend_from_slice(&sub);
                             ctx.pool.put(sub);
                             return;

@@ -7,8 +7,8 @@ use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::Instant;
 
-use xrce_proto::view::{RequestHead, SubmessageId};
-use xrce_proto::{BaseObjectRequest, ClientKey, Endianness, MessageHeader, ObjectId};
+use xrce_proto::layout::{submessage_offset, DataSubmessage};
+use xrce_proto::{BaseObjectRequest, ClientKey, MessageHeader, ObjectId};
 
 use super::connection::{Connection, Ctx};
 use super::outbox::Class;
@@ -110,13 +110,13 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 return false;
             }
             task.sent(size, now);
-            let sub_len = RequestHead::SIZE + size;
+            let sub_len = DataSubmessage::data(request, sample.body(request.object_id)).encoded_len();
             if let Some(last) = outbox.open_message(stream.0).filter(|_| pack) {
-                let pad = (4 - last.len() % 4) % 4;
-                if last.len() + pad + sub_len <= mtu {
-                    last.resize(last.len() + pad, 0);
+                let (len, at) = (last.len(), submessage_offset(last.len()));
+                if at + sub_len <= mtu {
+                    last.resize(at, 0);
                     if !append_data(last, key, request, &sample) {
-                        last.truncate(last.len() - pad);
+                        last.truncate(len);
                     }
                     return true;
                 }
@@ -150,30 +150,22 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     }
 }
 
-/// Appends a sample as one DATA submessage (spec §6.8), header included, to `buf`; false (logged, nothing
-/// appended) when it is too large for one submessage.
+/// Appends a sample as one DATA submessage (spec §6.8), header included, to `buf`, written in place; false
+/// (logged, nothing appended) when it is too large for one submessage.
 fn append_data(buf: &mut Vec<u8>, key: ClientKey, request: BaseObjectRequest, sample: &SampleRef<'_>) -> bool {
-    let head = RequestHead::data(SubmessageId::Data, request, sample.wire_size());
-    let Some(head_bytes) = head.to_bytes() else {
-        tracing::warn!(client = %key, size = head.encoded_len(), "sample too large for one DATA submessage, dropped");
+    let sub = DataSubmessage::data(request, sample.body(request.object_id));
+    if !sub.fits_one_submessage() {
+        tracing::warn!(client = %key, size = sub.encoded_len(), "sample too large for one DATA submessage, dropped");
         return false;
-    };
-    buf.extend_from_slice(&head_bytes);
-    match *sample {
-        SampleRef::Data(d) => buf.extend_from_slice(d),
-        SampleRef::Request { identity, data } => {
-            let mut id_buf = [0u8; xrce_proto::SampleIdentity::SIZE];
-            let mut w = xrce_proto::cdr::Writer::new(&mut id_buf, Endianness::Little);
-            w.write(&identity);
-            buf.extend_from_slice(&id_buf);
-            buf.extend_from_slice(data);
-        }
-        SampleRef::Reply { request_id, data } => {
-            // A reply starts with the request it answers (eProsima's requester format).
-            let related = BaseObjectRequest { request_id, object_id: request.object_id };
-            buf.extend_from_slice(&related.to_bytes());
-            buf.extend_from_slice(data);
+    }
+    let start = buf.len();
+    buf.resize(start + sub.encoded_len(), 0);
+    match buf.get_mut(start..).map(|out| sub.emit_into(out)) {
+        Some(Ok(_)) => true,
+        other => {
+            tracing::warn!(client = %key, "cannot write a DATA submessage: {other:?}");
+            buf.truncate(start);
+            false
         }
     }
-    true
 }

@@ -9,7 +9,7 @@ use std::time::Instant;
 use xrce_proto::message::parse;
 use xrce_proto::object::AgentRepresentation;
 use xrce_proto::submessage::{ActivityInfo, Create, DataFormat, DataPayload, GetInfo, Info, ReadData, TimestampReply};
-use xrce_proto::view::{self, SubmessageId};
+use xrce_proto::view::{self, FragmentHead, SubmessageId};
 use xrce_proto::{
     BaseObjectReply, BaseObjectRequest, MessageHeader, ObjectId, ObjectKind, ObjectVariant, RawSubmessage,
     ResultStatus, StatusCode, StreamId, StreamKind, Submessage,
@@ -199,7 +199,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         for raw in subs.map_while(Result::ok) {
             let object = match SubmessageId::from_u8(raw.header.id) {
                 Some(SubmessageId::WriteData) => view::write_data_object(raw.header.id, raw.payload()),
-                Some(SubmessageId::Fragment) if raw.header.flags & xrce_proto::submessage::flag::LAST_FRAGMENT != 0 => {
+                Some(SubmessageId::Fragment) if FragmentHead::from_header(raw.header).is_some_and(|f| f.last) => {
                     let start = self.streams.rel_in.get(&stream.0).and_then(ReliableIn::reassembly_start);
                     view::write_data_object_in_message(start.unwrap_or_else(|| raw.payload()))
                 }

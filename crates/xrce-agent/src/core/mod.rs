@@ -11,12 +11,12 @@
 //! the shell, and wall-clock time (TIMESTAMP_REPLY) from the anchor set with [`AgentCore::set_wall_clock`].
 //! `E` is whatever identifies a peer for the shell (a socket address, a connection id).
 
-pub mod auth;
+mod auth;
 mod clients;
-pub mod config;
+mod config;
 mod connection;
 mod deliver;
-pub mod droplog;
+mod droplog;
 mod entities;
 mod input;
 mod liveness;
@@ -39,9 +39,14 @@ use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};
 
+use xrce_proto::layout;
 use xrce_proto::{ClientKey, MessageHeader, ObjectId, StatusCode};
 
-pub use config::CoreConfig;
+pub use auth::{AddressMatch, AllowRule, AllowRuleError, AuthPolicy};
+pub use config::{
+    CoreConfig, DEFAULT_CLIENT_DEAD_TIME, DEFAULT_CLIENT_TIMEOUT, DEFAULT_HEARTBEAT_PERIOD, DEFAULT_MAX_CLIENTS,
+    DEFAULT_MAX_LIVELINESS_PROBES, DEFAULT_RELIABLE_WINDOW, DEFAULT_SUSPECT_GRACE,
+};
 use connection::{Connection, Ctx, Liveness};
 
 use crate::bufpool::BufPool;
@@ -51,7 +56,7 @@ use crate::middleware::Middleware;
 /// [`AgentCore::handle_datagram`]): under the 16 samples a CED topic keeps for best-effort readers, and above
 /// a publisher's usual window of 8, whose ACKNACK then leaves before its samples are delivered (8 here cost
 /// ~10 % of reliable 16 B throughput: interleaved runs, 12 won 6 of 8 pairs).
-pub const PUMP_AFTER_WRITES: usize = 12;
+const PUMP_AFTER_WRITES: usize = 12;
 
 /// A message for the shell to send.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -222,8 +227,8 @@ where
     }
 
     /// Handles one received message from `from`. Its samples reach readers at the end of the batch (the next
-    /// [`Self::poll_transmit`] or [`Self::end_batch`]), so several can share one message, or sooner once
-    /// [`PUMP_AFTER_WRITES`] samples wait.
+    /// [`Self::poll_transmit`]), so several can share one message, or sooner once a dozen samples wait
+    /// (`PUMP_AFTER_WRITES`).
     pub fn handle_datagram(&mut self, from: E, bytes: &[u8], now: Instant) {
         self.stats.datagrams_in = self.stats.datagrams_in.saturating_add(1);
         if self.wall_anchor.is_none() {
@@ -236,8 +241,8 @@ where
         }
     }
 
-    /// Runs the delivery deferred by [`Self::handle_datagram`] (also done by [`Self::poll_transmit`]).
-    pub fn end_batch(&mut self) {
+    /// Runs the delivery deferred by [`Self::handle_datagram`] (done first by [`Self::poll_transmit`]).
+    fn end_batch(&mut self) {
         if let (Some(_), Some(now)) = (self.unserved_writes, self.last_now) {
             self.serve_readers(now);
         }
@@ -299,8 +304,9 @@ where
 
     /// The ACKNACKs owed for the reliable messages handled so far, one at a time, before the batch's samples
     /// are delivered: a shell can send them ahead of the rest, so a publisher whose history is full gets its
-    /// slots back without waiting for the deliveries to be built.
-    pub fn poll_acknack(&mut self) -> Option<Transmit<E>> {
+    /// slots back without waiting for the deliveries to be built. [`Self::poll_transmit`] yields them too; the
+    /// built-in shells call this first.
+    pub(crate) fn poll_acknack(&mut self) -> Option<Transmit<E>> {
         while let Some(key) = self.acking.pop_front() {
             let Some(client) = self.clients.get_mut(&key) else { continue };
             let ack = client.next_acknack(&mut self.pool);
@@ -362,6 +368,8 @@ where
     }
 
     /// Number of messages waiting in [`Self::poll_transmit`] (at least one while a batch awaits delivery).
+    /// For the integration tests' harness (`tests/common`), not an API: hidden from the documentation.
+    #[doc(hidden)]
     pub fn pending_transmits(&self) -> usize {
         let queued: usize = self.clients.values().map(|c| c.outbox.len() + c.acks_due.len()).sum();
         queued + self.stateless.len() + usize::from(self.unserved_writes.is_some())
@@ -556,7 +564,7 @@ fn client_outbox<E: Copy>(client: &mut Box<Connection<E>>) -> (&mut outbox::Outb
 }
 
 /// Encodes `header` + one submessage.
-fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
+pub(crate) fn encode_message(header: &MessageHeader, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
     let mut buf = Vec::new();
     encode_into(&mut buf, header, sub).then_some(buf)
 }
@@ -567,7 +575,9 @@ fn encode_into(buf: &mut Vec<u8>, header: &MessageHeader, sub: &xrce_proto::Subm
     buf.resize(buf.capacity().clamp(64, 256), 0);
     let n = match xrce_proto::message::encode_single(buf, header, sub, xrce_proto::Endianness::Little) {
         Ok(n) => n,
-        Err(xrce_proto::cdr::Error::BufferTooSmall { needed }) if needed <= 65_535 + 8 => {
+        Err(xrce_proto::cdr::Error::BufferTooSmall { needed })
+            if needed <= layout::MAX_SINGLE_SUBMESSAGE_MESSAGE_LEN =>
+        {
             buf.resize(needed, 0);
             match xrce_proto::message::encode_single(buf, header, sub, xrce_proto::Endianness::Little) {
                 Ok(n) => n,
@@ -583,14 +593,21 @@ fn encode_into(buf: &mut Vec<u8>, header: &MessageHeader, sub: &xrce_proto::Subm
     true
 }
 
-/// Encodes one submessage (header included) as it would sit after a message header of `header_len` bytes.
-fn encode_submessage(header_len: usize, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
-    let header = MessageHeader::new(
-        if header_len == 8 { 0x01 } else { 0x81 },
-        xrce_proto::StreamId::NONE,
-        0,
-        ClientKey::INVALID,
-    );
-    let mut msg = encode_message(&header, sub)?;
-    Some(msg.split_off(header_len))
+/// Encodes one submessage (header included) as it will sit at byte `at` of its message (after a message
+/// header of `at` bytes).
+fn encode_submessage(at: usize, sub: &xrce_proto::Submessage<'_>) -> Option<Vec<u8>> {
+    let mut buf = vec![0u8; 64];
+    let n = match layout::encode_submessage(&mut buf, at, sub, xrce_proto::Endianness::Little) {
+        Ok(n) => n,
+        Err(xrce_proto::cdr::Error::BufferTooSmall { needed }) if needed <= layout::MAX_SUBMESSAGE_LEN => {
+            buf.resize(needed, 0);
+            layout::encode_submessage(&mut buf, at, sub, xrce_proto::Endianness::Little).ok()?
+        }
+        Err(e) => {
+            tracing::warn!("cannot encode {}: {e}", sub.id());
+            return None;
+        }
+    };
+    buf.truncate(n);
+    Some(buf)
 }

@@ -21,7 +21,10 @@ use std::fmt;
 use std::sync::Arc;
 use std::time::Instant;
 
-use xrce_proto::{ClientKey, Endianness, EntityVariant, ObjectId, ObjectKind, RequestId, SampleIdentity};
+use xrce_proto::layout::SampleBody;
+use xrce_proto::{
+    BaseObjectRequest, ClientKey, Endianness, EntityVariant, ObjectId, ObjectKind, RequestId, SampleIdentity,
+};
 
 pub use describe::{Description, ProfileSource, TopicRef};
 
@@ -188,14 +191,23 @@ pub enum SampleRef<'a> {
     },
 }
 
-impl SampleRef<'_> {
+impl<'a> SampleRef<'a> {
+    /// The sample as the body of a DATA for `reader`'s read task (a reply starts with the request it
+    /// answers: the request id of the WRITE_DATA that carried it and the requester, eProsima's format).
+    pub fn body(&self, reader: ObjectId) -> SampleBody<'a> {
+        match *self {
+            Self::Data(d) => SampleBody::Plain(d),
+            Self::Request { identity, data } => SampleBody::WithIdentity { identity, data },
+            Self::Reply { request_id, data } => {
+                SampleBody::Reply { related: BaseObjectRequest { request_id, object_id: reader }, data }
+            }
+        }
+    }
+
     /// Bytes the sample takes in a DATA payload after the read's `BaseObjectRequest`.
     pub fn wire_size(&self) -> usize {
-        match self {
-            Self::Data(d) => d.len(),
-            Self::Request { data, .. } => SampleIdentity::SIZE + data.len(),
-            Self::Reply { data, .. } => 4 + data.len(),
-        }
+        // The reader's id does not change the size.
+        self.body(ObjectId::INVALID).encoded_len()
     }
 
     /// An owned copy.
@@ -427,4 +439,29 @@ pub struct DdsOptions {
     /// Every XRCE participant shares the domain's default DDS participant instead of one DDS participant
     /// per participant name (`--participant-names off`).
     pub share_participants: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use xrce_proto::layout::DataSubmessage;
+
+    #[test]
+    fn a_reply_is_delivered_after_its_request_and_the_requester() {
+        let requester = ObjectId::new(1, ObjectKind::Requester);
+        let read = BaseObjectRequest { request_id: RequestId(0x0c), object_id: requester };
+        let reply = SampleRef::Reply { request_id: RequestId(0x0f), data: &[4, 0, 0, 0, 0, 0, 0, 0] };
+        let sub = DataSubmessage::data(read, reply.body(requester));
+        let mut out = [0u8; 20];
+        assert_eq!(sub.emit_into(&mut out), Ok(20));
+        // Packet 33 of `request_reply_adder_udp.txt` (eProsima's agent), after the message header.
+        assert_eq!(
+            out,
+            [0x09, 0x01, 0x10, 0x00, 0x00, 0x0c, 0x00, 0x17, 0x00, 0x0f, 0x00, 0x17, 4, 0, 0, 0, 0, 0, 0, 0]
+        );
+        assert_eq!(reply.wire_size(), 12);
+        let request = SampleRef::Request { identity: SampleIdentity::default(), data: &[1, 2] };
+        assert_eq!(request.wire_size(), SampleIdentity::SIZE + 2);
+        assert_eq!(SampleRef::Data(&[1, 2, 3]).wire_size(), 3);
+    }
 }

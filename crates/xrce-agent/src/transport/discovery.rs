@@ -8,10 +8,10 @@ use std::io;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use xrce_proto::message::{encode_single, parse};
+use xrce_proto::message::parse;
 use xrce_proto::object::AgentRepresentation;
 use xrce_proto::submessage::{ActivityInfo, Info};
-use xrce_proto::{BaseObjectReply, Endianness, ObjectVariant, ResultStatus, StatusCode, Submessage, TransportLocator};
+use xrce_proto::{BaseObjectReply, ObjectVariant, ResultStatus, StatusCode, Submessage, TransportLocator};
 
 use super::MAX_BLOCK;
 
@@ -67,10 +67,7 @@ pub fn answer(request: &[u8], service_port: u16, addresses: &[Ipv4Addr]) -> Opti
         config: Some(ObjectVariant::Agent(AgentRepresentation::EPROSIMA)),
         activity: Some(ActivityInfo::Agent { availability: 1, address_seq: xrce_proto::cdr::Seq::Items(&locators) }),
     };
-    let mut buf = vec![0u8; 64 + 8 * locators.len()];
-    let n = encode_single(&mut buf, &header, &Submessage::Info(info), Endianness::Little).ok()?;
-    buf.truncate(n);
-    Some(buf)
+    crate::core::encode_message(&header, &Submessage::Info(info))
 }
 
 impl DiscoveryServer {

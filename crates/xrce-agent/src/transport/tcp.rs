@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use mio::event::Event;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Interest, Registry, Token};
-use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN};
+use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN, PREFIX_LEN};
 
 use super::discovery::DiscoveryServer;
 use super::drive::{EventLoop, Inbox, Io, Spent};
@@ -82,7 +82,7 @@ struct Conn {
     id: ConnId,
     decoder: TcpDecoder<Vec<u8>>,
     /// Length prefixes and messages, in order; the front one is `sent` bytes into its prefix + message.
-    outbox: VecDeque<([u8; 2], Vec<u8>)>,
+    outbox: VecDeque<([u8; PREFIX_LEN], Vec<u8>)>,
     sent: usize,
     queued: usize,
     /// When the outbox last moved (or got its first message after being empty).
@@ -99,7 +99,7 @@ impl Conn {
         if self.outbox.is_empty() {
             self.progress_at = now;
         }
-        self.queued += 2 + data.len();
+        self.queued += PREFIX_LEN + data.len();
         self.outbox.push_back((head, data));
         self.queued <= MAX_OUTBOX_BYTES
     }
@@ -112,7 +112,10 @@ impl Conn {
             for (i, (head, data)) in self.outbox.iter().take(WRITE_BATCH).enumerate() {
                 // Only the front frame may be partly written already.
                 let skip = if i == 0 { self.sent } else { 0 };
-                let parts = [head.get(skip.min(2)..).unwrap_or(&[]), data.get(skip.saturating_sub(2)..).unwrap_or(&[])];
+                let parts = [
+                    head.get(skip.min(PREFIX_LEN)..).unwrap_or(&[]),
+                    data.get(skip.saturating_sub(PREFIX_LEN)..).unwrap_or(&[]),
+                ];
                 for part in parts.into_iter().filter(|p| !p.is_empty()) {
                     if let Some(slot) = slices.get_mut(n) {
                         *slot = IoSlice::new(part);
@@ -131,7 +134,7 @@ impl Conn {
             self.queued = self.queued.saturating_sub(written);
             let mut left = self.sent + written;
             while let Some((_, data)) = self.outbox.front() {
-                let whole = 2 + data.len();
+                let whole = PREFIX_LEN + data.len();
                 if left < whole {
                     break;
                 }

@@ -3,7 +3,7 @@
 //! One thread, one `mio` loop ([`EventLoop`]) on the socket and the middleware's
 //! waker. When the socket is readable a turn takes every queued datagram up to a batch
 //! ([`batch`](super::batch), `recvmmsg` on Linux), runs them through the core under one lock, sends the
-//! ACKNACKs owed at once ([`AgentCore::poll_acknack`](crate::core::AgentCore::poll_acknack)), then delivers
+//! ACKNACKs owed at once (`AgentCore::poll_acknack`), then delivers
 //! the batch's samples and sends the rest in batches (`sendmmsg`; a run of equal-size datagrams to one peer,
 //! such as the fragments of a sample, as one UDP GSO send). After a turn that received datagrams the next
 //! batch is read at once, without a readiness poll, as long as batches come back full. Socket buffers are

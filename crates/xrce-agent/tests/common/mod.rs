@@ -307,6 +307,23 @@ pub fn create_client_msg(key: u32, session: u8) -> Vec<u8> {
     buf[..n].to_vec()
 }
 
+/// The bytes of a DATA or WRITE_DATA after its request ([`Out::Data`]'s `data`), to split with the layouts of
+/// requests and replies.
+pub fn data_payload(data: &[u8]) -> xrce_proto::submessage::DataPayload<'_> {
+    use xrce_proto::submessage::{DataFormat, DataPayload};
+    DataPayload { request: xrce_proto::BaseObjectRequest::default(), format: DataFormat::DATA, data }
+}
+
+/// An ACKNACK of session 0x81 for reliable stream 0x80 acknowledging everything before `next`.
+pub fn acknack_msg(next: u16) -> Vec<u8> {
+    let header = MessageHeader::new(0x81, StreamId::NONE, 0, xrce_proto::ClientKey::INVALID);
+    let ack = AckNack { first_unacked_seq_num: next, nack_bitmap: [0, 0], stream_id: 0x80 };
+    let mut buf = [0u8; 16];
+    let n = message::encode_single(&mut buf, &header, &Submessage::AckNack(ack), xrce_proto::Endianness::Little)
+        .expect("encode");
+    buf[..n].to_vec()
+}
+
 /// A core whose CED resolves references with the refs file `tests/data/vectors/agent.refs`.
 pub fn new_core_with_refs() -> TestCore {
     let profiles = xrce_agent::middleware::profiles::StoreProfiles::new();

@@ -334,29 +334,13 @@ fn endpoint_gids(h: &Handle) -> Option<EndpointGids> {
 
 /// XRCE sample identity of a DDS sample identity.
 fn identity_to_xrce(id: &xrce_dds::SampleIdentity) -> SampleIdentity {
-    let (prefix, rest) = id.writer_guid.split_first_chunk::<12>().map_or(([0u8; 12], &[][..]), |(p, r)| (*p, r));
-    let (entity_key, rest) = rest.split_first_chunk::<3>().map_or(([0u8; 3], &[][..]), |(k, r)| (*k, r));
-    let entity_kind = rest.first().copied().unwrap_or(0);
     let (high, low) = id.sequence_parts();
-    SampleIdentity {
-        writer_guid: Guid { prefix, entity_key, entity_kind },
-        sequence_number: SequenceNumber { high, low },
-    }
+    SampleIdentity { writer_guid: Guid::from_bytes(id.writer_guid), sequence_number: SequenceNumber { high, low } }
 }
 
 /// DDS sample identity of an XRCE one (the identity a replier's WRITE_DATA carries back).
 fn identity_to_dds(id: &SampleIdentity) -> xrce_dds::SampleIdentity {
-    let mut guid = [0u8; 16];
-    for (dst, src) in guid.iter_mut().zip(
-        id.writer_guid
-            .prefix
-            .iter()
-            .chain(id.writer_guid.entity_key.iter())
-            .chain(std::iter::once(&id.writer_guid.entity_kind)),
-    ) {
-        *dst = *src;
-    }
-    xrce_dds::SampleIdentity::from_parts(guid, id.sequence_number.high, id.sequence_number.low)
+    xrce_dds::SampleIdentity::from_parts(id.writer_guid.to_bytes(), id.sequence_number.high, id.sequence_number.low)
 }
 
 impl Dds {
