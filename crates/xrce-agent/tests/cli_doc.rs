@@ -1,5 +1,6 @@
-//! docs/cli.md and `--help` list the subcommands and options clap really defines (issue 14 item 7), and
-//! docs/agent-api.md's code uses every API name its tables give.
+//! docs/cli.md and `--help` list the subcommands and options clap really defines (issue 14 item 7),
+//! docs/agent-api.md's code uses every API name its tables give, and every example has a command in the
+//! README or docs/.
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;
@@ -199,4 +200,32 @@ fn agent_api_doc_code_uses_every_mapped_name() {
     let code = code_words(&doc);
     let missing: Vec<&String> = names.iter().filter(|n| !code.contains(*n)).collect();
     assert!(missing.is_empty(), "docs/agent-api.md maps these but its code blocks never use them: {missing:?}");
+}
+
+/// Every example of the workspace has a command (`--example NAME`) in the README or docs/.
+#[test]
+fn every_example_has_a_command_in_the_docs() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut docs = std::fs::read_to_string(root.join("README.md")).expect("README.md");
+    for entry in std::fs::read_dir(root.join("docs")).expect("docs/") {
+        docs += &std::fs::read_to_string(entry.expect("entry").path()).expect("a doc");
+    }
+    let mut examples = Vec::new();
+    for krate in std::fs::read_dir(root.join("crates")).expect("crates/") {
+        let Ok(dir) = std::fs::read_dir(krate.expect("entry").path().join("examples")) else { continue };
+        for file in dir {
+            let path = file.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "rs") {
+                examples.push(path.file_stem().expect("a name").to_string_lossy().into_owned());
+            }
+        }
+    }
+    assert!(examples.len() >= 20 && examples.iter().any(|e| e == "throughput"), "examples found: {examples:?}");
+    let has_command = |name: &str| {
+        let needle = format!("--example {name}");
+        docs.match_indices(&needle)
+            .any(|(at, _)| !docs[at + needle.len()..].starts_with(|c: char| c.is_ascii_alphanumeric() || c == '_'))
+    };
+    let missing: Vec<&String> = examples.iter().filter(|e| !has_command(e)).collect();
+    assert!(missing.is_empty(), "no `--example NAME` command in README.md or docs/ for {missing:?}");
 }
