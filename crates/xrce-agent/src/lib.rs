@@ -16,3 +16,8 @@ pub mod main_cli;
 pub mod middleware;
 pub mod profile;
 pub mod transport;
+
+/// docs/agent-api.md: its code blocks are doctests, so the page cannot drift from the API.
+#[cfg(doctest)]
+#[doc = include_str!("../../../docs/agent-api.md")]
+pub struct AgentApiDoc;

@@ -1,6 +1,6 @@
 //! Custom agent transports (eProsima's `CustomAgent`, seed 004) against our client's custom transport
 //! (`CustomTransport` over `CustomIo`): over an in-memory medium with one link per client, in packet and
-//! stream (framed) mode, and framed over pseudoterminals. Each carries a publisher and a subscriber through
+//! stream (framed) mode, and over pseudoterminals in both modes. Each carries a publisher and a subscriber through
 //! the agent (`-m ced`) on reliable streams, with a sample several times the MTU (FRAGMENTs both ways).
 //! Two clients on two endpoints at once must each get their own answers, and the agent must survive a
 //! failed `read`, a failed `open` and a restart.
@@ -534,18 +534,8 @@ impl CustomIo for PtyClientIo {
 
 #[test]
 fn stream_mode_over_pseudoterminals() {
-    use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
-    let ptys: Vec<nix::pty::OpenptyResult> = (0..2).map(|_| nix::pty::openpty(None, None).expect("pty")).collect();
-    let mut masters = Vec::new();
-    let mut clients = Vec::new();
-    for pty in ptys {
-        // Raw: no echo, no line discipline touching the frames' bytes.
-        let mut t = tcgetattr(&pty.slave).expect("termios");
-        cfmakeraw(&mut t);
-        tcsetattr(&pty.slave, SetArg::TCSANOW, &t).expect("raw");
-        masters.push(File::from(pty.master));
-        clients.push(PtyClientIo { slave: File::from(pty.slave) });
-    }
+    let (masters, slaves) = raw_ptys(2);
+    let mut clients: Vec<PtyClientIo> = slaves.into_iter().map(|slave| PtyClientIo { slave }).collect();
     let desc = EndpointDesc::new().member_u8("line");
     let mut agent =
         CustomAgent::new("pty", desc, MiddlewareKind::Ced, Mode::Stream, PtyAgentIo { masters }).expect("agent");
@@ -553,6 +543,125 @@ fn stream_mode_over_pseudoterminals() {
     let publ = clients.pop().unwrap();
     let sub = clients.pop().unwrap();
     pubsub_through(sub, publ, true, (0x0D06_0001, 0x0D06_0002), "PtyTopic");
+    agent.stop().expect("stops");
+}
+
+/// Raw pseudoterminals for `n` clients: the agent gets the masters, each client a slave.
+fn raw_ptys(n: usize) -> (Vec<File>, Vec<File>) {
+    use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
+    let (mut masters, mut slaves) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        let pty = nix::pty::openpty(None, None).expect("pty");
+        // Raw: no echo, no line discipline touching the messages' bytes.
+        let mut t = tcgetattr(&pty.slave).expect("termios");
+        cfmakeraw(&mut t);
+        tcsetattr(&pty.slave, SetArg::TCSANOW, &t).expect("raw");
+        masters.push(File::from(pty.master));
+        slaves.push(File::from(pty.slave));
+    }
+    (masters, slaves)
+}
+
+/// Packet mode over pseudoterminals. A pty is a byte stream (two writes may come out of one read, a long
+/// one in pieces), so the test's I/O on both sides delimits each message with a 2-byte little-endian length,
+/// as a medium that keeps packet boundaries would (a radio, a CAN-like bus): every `read` hands the agent
+/// and the client exactly one message, every `write` sends one, and the XRCE bytes are never framed.
+/// The endpoint has three members of the three other integer sizes: the line (`u8`), a port (`u16`) and
+/// a board id (`u64`), all checked when the agent hands them back to `write`.
+struct PtyPacketAgentIo {
+    masters: Vec<File>,
+}
+
+fn line_port(line: u8) -> u16 {
+    7000 + u16::from(line)
+}
+
+fn line_board(line: u8) -> u64 {
+    0xB0A2_D000_0000_0000 | u64::from(line)
+}
+
+/// Writes one message with its length in front, in one `write` where the pty takes it.
+fn write_packet(mut to: &File, bytes: &[u8]) -> io::Result<usize> {
+    let len = u16::try_from(bytes.len()).map_err(io_error)?;
+    let mut packet = len.to_le_bytes().to_vec();
+    packet.extend_from_slice(bytes);
+    to.write_all(&packet)?;
+    Ok(bytes.len())
+}
+
+/// Reads one length-delimited message into `buf` (the writer sent it whole, so it is all there soon).
+fn read_packet(mut from: &File, buf: &mut [u8]) -> io::Result<usize> {
+    let mut len = [0u8; 2];
+    from.read_exact(&mut len)?;
+    let len = usize::from(u16::from_le_bytes(len));
+    let into = buf.get_mut(..len).ok_or_else(|| io::Error::other(format!("a {len}-byte message")))?;
+    from.read_exact(into)?;
+    Ok(len)
+}
+
+impl CustomAgentIo for PtyPacketAgentIo {
+    fn write(&self, to: &Endpoint, bytes: &[u8]) -> io::Result<usize> {
+        let line = to.get::<u8>("line").map_err(io_error)?;
+        // The members come back as `read` set them.
+        if to.get::<u16>("port").map_err(io_error)? != line_port(line)
+            || to.get::<u64>("board").map_err(io_error)? != line_board(line)
+        {
+            return Err(io::Error::other("endpoint members mixed up"));
+        }
+        write_packet(self.masters.get(usize::from(line)).ok_or_else(|| io::Error::other("no such line"))?, bytes)
+    }
+
+    fn read(&self, from: &mut Endpoint, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+        let mut fds: Vec<PollFd<'_>> = self.masters.iter().map(|m| PollFd::new(m.as_fd(), PollFlags::POLLIN)).collect();
+        let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);
+        if poll(&mut fds, PollTimeout::from(ms)).map_err(io::Error::from)? == 0 {
+            return Ok(0);
+        }
+        let ready = fds.iter().position(|f| f.revents().is_some_and(|r| r.contains(PollFlags::POLLIN)));
+        let Some(index) = ready else { return Ok(0) };
+        let line = u8::try_from(index).map_err(io_error)?;
+        from.set("line", line).map_err(io_error)?;
+        from.set("port", line_port(line)).map_err(io_error)?;
+        from.set("board", line_board(line)).map_err(io_error)?;
+        read_packet(&self.masters[index], buf)
+    }
+}
+
+/// A packet-mode client on a pseudoterminal's slave side (see [`PtyPacketAgentIo`]).
+struct PtyPacketClientIo {
+    slave: File,
+}
+
+impl CustomIo for PtyPacketClientIo {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, TransportError> {
+        write_packet(&self.slave, buf).map_err(|_| TransportError::Custom(1))
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<usize, TransportError> {
+        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+        let ms = u16::try_from(timeout_ms.clamp(1, 1000)).unwrap_or(1000);
+        let mut fds = [PollFd::new(self.slave.as_fd(), PollFlags::POLLIN)];
+        match poll(&mut fds, PollTimeout::from(ms)) {
+            Ok(n) if n > 0 => read_packet(&self.slave, buf).map_err(|_| TransportError::Custom(2)),
+            _ => Ok(0),
+        }
+    }
+}
+
+/// Packet mode over pseudoterminals, a publisher and a subscriber with a fragmented sample (each FRAGMENT
+/// its own packet), through endpoints of `u8`, `u16` and `u64` members.
+#[test]
+fn packet_mode_over_pseudoterminals() {
+    let (masters, mut slaves) = raw_ptys(2);
+    let desc = EndpointDesc::new().member_u8("line").member_u16("port").member_u64("board");
+    let mut agent =
+        CustomAgent::new("pty-packets", desc, MiddlewareKind::Ced, Mode::Packet, PtyPacketAgentIo { masters })
+            .expect("agent");
+    agent.start().expect("starts");
+    let publ = PtyPacketClientIo { slave: slaves.pop().unwrap() };
+    let sub = PtyPacketClientIo { slave: slaves.pop().unwrap() };
+    pubsub_through(sub, publ, false, (0x0D07_0001, 0x0D07_0002), "PtyPacketTopic");
     agent.stop().expect("stops");
 }
 

@@ -161,7 +161,9 @@ where
                     }
                     self.suspect_endpoint_peers(from, rep.client_key, now);
                 } else {
-                    tracing::warn!(peer = ?from, client = %rep.client_key, status = status.name(), "CREATE_CLIENT refused");
+                    if let Some(held_back) = self.drop_log.admit(from, now) {
+                        tracing::warn!(peer = ?from, client = %rep.client_key, status = status.name(), held_back, "CREATE_CLIENT refused");
+                    }
                 }
                 status
             }

@@ -376,7 +376,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             StreamKind::Reliable => !self.streams.rel_out.contains_key(&stream.0),
         };
         if is_new && self.streams.count() >= ctx.config.max_streams_per_client {
-            tracing::warn!(client = %self.key, stream = stream.0, "too many streams: message dropped");
+            if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
+                tracing::warn!(client = %self.key, stream = stream.0, held_back, "too many streams: message dropped");
+            }
             ctx.pool.put(sub);
             return;
         }
@@ -427,7 +429,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 let out = self.streams.rel_out.get_or_insert_with(stream.0, || ReliableOut::new(window, max_pending));
                 let queued = if fits { out.queue_one(sub) } else { out.queue(fragment(&sub, self.mtu, header_len)) };
                 if !queued {
-                    tracing::warn!(client = %self.key, stream = stream.0, "reliable output queue full: message dropped");
+                    if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
+                        tracing::warn!(client = %self.key, stream = stream.0, held_back, "reliable output queue full: message dropped");
+                    }
                     ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
                     return;
                 }

@@ -68,7 +68,14 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 StatusCode::OK
             }
             Err(e) => {
-                tracing::warn!(client = %key, %id, ?kind, "entity creation failed: {e}");
+                // Every failure stays visible at debug level; warnings are rate-limited, as a client may
+                // send CREATEs that fail in a loop.
+                match ctx.admit_warning(self.endpoint, now) {
+                    Some(held_back) => {
+                        tracing::warn!(peer = ?self.endpoint, client = %key, %id, ?kind, held_back, "entity creation failed: {e}");
+                    }
+                    None => tracing::debug!(client = %key, %id, ?kind, "entity creation failed: {e}"),
+                }
                 e.status()
             }
         }

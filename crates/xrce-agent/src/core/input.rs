@@ -70,7 +70,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 if !self.streams.be_in.contains_key(&stream.0)
                     && self.streams.count() >= ctx.config.max_streams_per_client
                 {
-                    tracing::warn!(peer = ?from, client = %self.key, "dropping message: too many streams");
+                    if let Some(held_back) = ctx.drop_log.admit(from, now) {
+                        tracing::warn!(peer = ?from, client = %self.key, held_back, "dropping message: too many streams");
+                    }
                     ctx.stats.datagrams_dropped = ctx.stats.datagrams_dropped.saturating_add(1);
                     return;
                 }
@@ -107,7 +109,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     ) {
         let stream = header.stream_id;
         if !self.streams.rel_in.contains_key(&stream.0) && self.streams.count() >= ctx.config.max_streams_per_client {
-            tracing::warn!(peer = ?from, client = %self.key, "dropping message: too many streams");
+            if let Some(held_back) = ctx.drop_log.admit(from, now) {
+                tracing::warn!(peer = ?from, client = %self.key, held_back, "dropping message: too many streams");
+            }
             ctx.stats.datagrams_dropped = ctx.stats.datagrams_dropped.saturating_add(1);
             return;
         }
@@ -346,7 +350,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                     if !self.streams.rel_in.contains_key(&hb.stream_id)
                         && self.streams.count() >= ctx.config.max_streams_per_client
                     {
-                        tracing::warn!(client = %self.key, stream = hb.stream_id, "HEARTBEAT ignored: too many streams");
+                        if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
+                            tracing::warn!(peer = ?self.endpoint, client = %self.key, stream = hb.stream_id, held_back, "HEARTBEAT ignored: too many streams");
+                        }
                         return Flow::Continue;
                     }
                     self.streams.rel_in.get_or_insert_with(hb.stream_id, || ReliableIn::new(window)).on_heartbeat(&hb);
@@ -410,7 +416,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             },
             Ok(None) => Flow::Continue,
             Err(size) => {
-                tracing::warn!(peer = ?self.endpoint, client = %self.key, size, limit, "fragmented message too large, dropped");
+                if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
+                    tracing::warn!(peer = ?self.endpoint, client = %self.key, size, limit, held_back, "fragmented message too large, dropped");
+                }
                 Flow::Continue
             }
         }
@@ -461,7 +469,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             ObjectKind::Replier => match data.split_sample_identity() {
                 Ok((identity, reply)) => ctx.middleware.write_reply(entity, &identity, reply, now),
                 Err(e) => {
-                    tracing::warn!(client = %self.key, %id, "reply without a sample identity: {e}");
+                    if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
+                        tracing::warn!(peer = ?self.endpoint, client = %self.key, %id, held_back, "reply without a sample identity: {e}");
+                    }
                     return Flow::Continue;
                 }
             },
@@ -502,7 +512,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             return;
         }
         if let Err(e) = ctx.middleware.start_reading(entity) {
-            tracing::warn!(client = %self.key, %id, "cannot start reading: {e}");
+            if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
+                tracing::warn!(peer = ?self.endpoint, client = %self.key, %id, held_back, "cannot start reading: {e}");
+            }
             self.send_status(ctx, StreamId::BUILTIN_RELIABLE, read.request, StatusCode::ERR_RESOURCES, now);
             return;
         }

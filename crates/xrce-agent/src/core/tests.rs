@@ -1,7 +1,8 @@
 //! Unit tests of the core's session and stream handling, driven with hand-built messages.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{AckNack, Heartbeat};
@@ -83,33 +84,129 @@ fn acknacks_can_be_taken_before_the_batch_is_delivered() {
     assert_eq!(acknacks(&mut core), vec![], "and it is not sent twice");
 }
 
+/// Counts the WARN events of the code it runs around.
+struct CountWarnings(Arc<AtomicUsize>);
+
+impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for CountWarnings {
+    fn on_event(&self, e: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
+        if *e.metadata().level() == tracing::Level::WARN {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// The WARN events `f` emits (on this thread).
+fn warnings_of(f: impl FnOnce()) -> usize {
+    use tracing_subscriber::layer::SubscriberExt;
+    let warnings = Arc::new(AtomicUsize::new(0));
+    let subscriber = tracing_subscriber::registry().with(CountWarnings(warnings.clone()));
+    tracing::subscriber::with_default(subscriber, f);
+    warnings.load(Ordering::Relaxed)
+}
+
 /// 2,000 garbage datagrams from one peer give one warning, then one per second with the count held back;
 /// another peer gets its own.
 #[test]
 fn garbage_from_one_peer_is_warned_about_once_per_second() {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::time::Duration;
-    use tracing_subscriber::layer::SubscriberExt;
-
-    struct CountWarnings(Arc<AtomicUsize>);
-    impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for CountWarnings {
-        fn on_event(&self, e: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
-            if *e.metadata().level() == tracing::Level::WARN {
-                self.0.fetch_add(1, Ordering::Relaxed);
-            }
-        }
-    }
-    let warnings = Arc::new(AtomicUsize::new(0));
-    let subscriber = tracing_subscriber::registry().with(CountWarnings(warnings.clone()));
     let mut core = core_with(CoreConfig::default());
     let t0 = Instant::now();
-    tracing::subscriber::with_default(subscriber, || {
+    let warnings = warnings_of(|| {
         for i in 0..2000u64 {
             core.handle_datagram(9, &[0xFF], t0 + Duration::from_micros(i * 100));
         }
         core.handle_datagram(9, &[0xFF], t0 + Duration::from_secs(1));
         core.handle_datagram(10, &[0xFF], t0);
     });
-    assert_eq!(warnings.load(Ordering::Relaxed), 3, "first, one a second later, and the other peer's");
+    assert_eq!(warnings, 3, "first, one a second later, and the other peer's");
     assert_eq!(core.stats().datagrams_dropped, 2002, "every datagram is still dropped and counted");
+}
+
+/// Hostile input inside a session, 2,000 datagrams of each kind from one client within 0.2 s: each kind gives
+/// one warning, not one per datagram (every call site goes through the peer's `DropLog`).
+#[test]
+fn hostile_input_in_a_session_is_warned_about_once_per_second() {
+    use xrce_proto::object::{EntityVariant, ObjectVariant, Representation};
+    use xrce_proto::submessage::{Create, CreationMode};
+    use xrce_proto::{BaseObjectRequest, ObjectId, ObjectKind, RequestId};
+
+    const PEER: u16 = 7;
+    let no_streams = CoreConfig { max_streams_per_client: 0, ..CoreConfig::default() };
+    let small_reassembly = CoreConfig { max_reassembly_size: 64, ..CoreConfig::default() };
+    let on = |stream: u8, seq: u16| MessageHeader::new(0x81, StreamId(stream), seq, ClientKey::INVALID);
+    let heartbeat = |stream: u8| Heartbeat { first_unacked_seq_nr: 0, last_unacked_seq_nr: 0, stream_id: stream };
+    let create = |i: u16, variant: EntityVariant<'_>| {
+        let request = BaseObjectRequest {
+            request_id: RequestId(i.wrapping_add(1)),
+            object_id: ObjectId::new(i % 0x0FFF, variant.kind),
+        };
+        let create = Create { request, mode: CreationMode::default(), variant: ObjectVariant::Entity(variant) };
+        encode(&on(0, 0), &Submessage::Create(create))
+    };
+    let participant = create(0x0FFE, EntityVariant::participant(Representation::Xml("<participant/>"), 0));
+    let parent = ObjectId::new(0x0FFE, ObjectKind::Participant);
+    // (what, config, a datagram sent first, the hostile datagram number i)
+    #[allow(clippy::type_complexity)]
+    let kinds: [(&str, CoreConfig, Option<Vec<u8>>, Box<dyn Fn(u16) -> Vec<u8>>); 6] = [
+        (
+            "best-effort message on one stream too many",
+            no_streams.clone(),
+            None,
+            Box::new(move |i| encode(&on(1 + (i % 100) as u8, 0), &Submessage::Heartbeat(heartbeat(0x80)))),
+        ),
+        (
+            "reliable message on one stream too many",
+            no_streams.clone(),
+            None,
+            Box::new(move |i| encode(&on(0x80 + (i % 100) as u8, 0), &Submessage::Heartbeat(heartbeat(0x80)))),
+        ),
+        (
+            "HEARTBEAT for one stream too many",
+            no_streams,
+            None,
+            Box::new(move |i| encode(&on(0, 0), &Submessage::Heartbeat(heartbeat(0x80 + (i % 100) as u8)))),
+        ),
+        (
+            "fragment past the reassembly limit",
+            small_reassembly,
+            None,
+            Box::new(move |i| encode(&on(0x80, i), &Submessage::Fragment { last: false, data: &[0xAB; 100] })),
+        ),
+        (
+            "CREATE the middleware refuses (a topic without a name)",
+            CoreConfig::default(),
+            Some(participant),
+            Box::new(move |i| {
+                create(i, EntityVariant::child(ObjectKind::Topic, Representation::Xml("<topic/>"), parent))
+            }),
+        ),
+        (
+            "CREATE_CLIENT refused (MTU too small)",
+            CoreConfig::default(),
+            None,
+            Box::new(|i| {
+                let header = MessageHeader::new(0x80, StreamId::NONE, 0, ClientKey::INVALID);
+                let rep = ClientRepresentation::new(ClientKey::from_u32(0x1000 + u32::from(i)), 0x81, 1);
+                encode(&header, &Submessage::CreateClient(rep))
+            }),
+        ),
+    ];
+    let mut counts = Vec::new();
+    for (what, config, setup, datagram) in kinds {
+        let mut core = core_with(config);
+        let t0 = Instant::now();
+        core.handle_datagram(PEER, &create_client(0xAABB_CCDD), t0);
+        if let Some(setup) = setup {
+            core.handle_datagram(PEER, &setup, t0);
+        }
+        while core.poll_transmit(t0).is_some() {}
+        let warnings = warnings_of(|| {
+            for i in 0..2000u16 {
+                core.handle_datagram(PEER, &datagram(i), t0 + Duration::from_micros(u64::from(i) * 100));
+                while core.poll_transmit(t0).is_some() {}
+            }
+        });
+        counts.push((what, warnings));
+    }
+    let expected: Vec<_> = counts.iter().map(|(what, _)| (*what, 1)).collect();
+    assert_eq!(counts, expected, "one warning per kind for 2,000 datagrams within a second");
 }

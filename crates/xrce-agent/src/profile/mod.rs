@@ -106,6 +106,14 @@ pub enum ProfileError {
         /// Underlying error.
         source: std::io::Error,
     },
+    /// The refs file was read but is not usable (too large, not UTF-8, malformed): the message names it.
+    #[error("refs file {}: {source}", path.display())]
+    InFile {
+        /// File concerned.
+        path: PathBuf,
+        /// What is wrong with its content.
+        source: Box<ProfileError>,
+    },
 }
 
 /// A participant (`<participant>`). eProsima's agent takes the domain from the CREATE, not from here.

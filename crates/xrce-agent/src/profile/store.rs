@@ -68,11 +68,13 @@ impl ProfileStore {
         let file = std::fs::File::open(path).map_err(io)?;
         let mut bytes = Vec::new();
         file.take(MAX_REFS_LEN as u64 + 1).read_to_end(&mut bytes).map_err(io)?;
+        // The agent may load several files: say which one is wrong.
+        let in_file = |e| ProfileError::InFile { path: path.to_owned(), source: Box::new(e) };
         if bytes.len() > MAX_REFS_LEN {
-            return Err(ProfileError::TooLarge { len: bytes.len(), max: MAX_REFS_LEN });
+            return Err(in_file(ProfileError::TooLarge { len: bytes.len(), max: MAX_REFS_LEN }));
         }
-        let text = String::from_utf8(bytes).map_err(|_| ProfileError::NotUtf8)?;
-        self.merge_xml_str(&text)
+        let text = String::from_utf8(bytes).map_err(|_| in_file(ProfileError::NotUtf8))?;
+        self.merge_xml_str(&text).map_err(in_file)
     }
 
     /// Adds the profiles of refs-file text. Returns how many profiles were added. A malformed profile fails

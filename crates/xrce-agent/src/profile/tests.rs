@@ -657,18 +657,35 @@ fn store_merges_more_files() {
     assert!(store.get(ObjectKind::Topic, "Circle").is_ok());
 }
 
+/// The error of a refs file that cannot be used names the file.
+fn file_error(path: &std::path::Path) -> ProfileError {
+    let e = ProfileStore::load_refs(path).unwrap_err();
+    let shown = e.to_string();
+    assert!(shown.contains(&path.display().to_string()), "the error names {}: {shown}", path.display());
+    match e {
+        ProfileError::InFile { source, .. } => *source,
+        other => other,
+    }
+}
+
 #[test]
 fn store_file_errors() {
-    let e = ProfileStore::load_refs("/nonexistent/agent.refs").unwrap_err();
+    let e = file_error(std::path::Path::new("/nonexistent/agent.refs"));
     assert!(matches!(e, ProfileError::Io { .. }), "{e}");
     let dir = std::env::temp_dir().join(format!("xrce-agent-profile-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let bad = dir.join("latin1.refs");
     std::fs::write(&bad, b"<profiles><topic profile_name=\"\xe9\"><name>t</name></topic></profiles>").unwrap();
-    assert!(matches!(ProfileStore::load_refs(&bad), Err(ProfileError::NotUtf8)));
+    assert!(matches!(file_error(&bad), ProfileError::NotUtf8));
     let big = dir.join("big.refs");
     std::fs::write(&big, vec![b' '; MAX_REFS_LEN + 1]).unwrap();
-    assert!(matches!(ProfileStore::load_refs(&big), Err(ProfileError::TooLarge { .. })));
+    assert!(matches!(file_error(&big), ProfileError::TooLarge { .. }));
+    let malformed = dir.join("malformed.refs");
+    std::fs::write(&malformed, "<dds><profiles><topic profile_name=\"t\"><name>t</name></profiles></dds>").unwrap();
+    assert!(matches!(file_error(&malformed), ProfileError::Xml(_)));
+    let invalid = dir.join("invalid.refs");
+    std::fs::write(&invalid, "<profiles><topic profile_name=\"t\"><name></name></topic></profiles>").unwrap();
+    assert!(matches!(file_error(&invalid), ProfileError::EmptyElement { .. }));
     assert!(matches!(ProfileStore::from_xml_str("<profiles>"), Err(ProfileError::Xml(_))));
     let empty = ProfileStore::from_xml_str("<profiles/>").unwrap();
     assert!(empty.is_empty());
@@ -684,4 +701,47 @@ fn refs_and_xml_give_the_same_profile() {
          </data_writer></dds>",
     );
     assert!(by_ref.matches(&by_xml));
+}
+
+/// `-r FILE` on the command line (a malformed or a missing file) and the agent API's `load_config_file` fail
+/// with an error naming the file.
+#[test]
+fn agent_refs_errors_name_the_file() {
+    let dir = std::env::temp_dir().join(format!("xrce-agent-refs-errors-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let start = |refs: &std::path::Path| {
+        let refs = refs.display().to_string();
+        match crate::agent::AgentInstance::create([
+            "xrce-agent",
+            "udp4",
+            "-p",
+            "0",
+            "-m",
+            "ced",
+            "-v",
+            "0",
+            "-r",
+            &refs,
+        ]) {
+            Ok(mut agent) => {
+                agent.stop().unwrap();
+                panic!("the agent started with {refs}");
+            }
+            Err(e) => {
+                let shown = e.to_string();
+                assert!(shown.contains(&refs), "the error names {refs}: {shown}");
+            }
+        }
+    };
+    let malformed = dir.join("malformed.refs");
+    std::fs::write(&malformed, "<dds><profiles><data_writer profile_name=\"w\"></profiles>").unwrap();
+    start(&malformed);
+    start(&dir.join("missing.refs"));
+    // eProsima's `load_config_file` through the agent API.
+    let agent = crate::agent::Agent::<u16>::new(crate::middleware::MiddlewareKind::Ced, Default::default()).unwrap();
+    let missing = dir.join("missing.refs");
+    let shown = agent.load_config_file(&missing).unwrap_err().to_string();
+    assert!(shown.contains(&missing.display().to_string()), "{shown}");
+    let shown = agent.load_config_file(&malformed).unwrap_err().to_string();
+    assert!(shown.contains(&malformed.display().to_string()), "{shown}");
 }

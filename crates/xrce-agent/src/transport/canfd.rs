@@ -44,9 +44,27 @@ pub fn core_config() -> CoreConfig {
     CoreConfig { max_mtu: MAX_MESSAGE_LEN as u16, ..CoreConfig::default() }
 }
 
-/// A client on the bus: the 29-bit identifier of its frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct CanEndpoint(pub u32);
+/// A client on the bus: the 29-bit identifier of its frames. Shown (`{}` and `{:?}`, so in the core's log
+/// lines) as `can0, id 0x123`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CanEndpoint {
+    /// The client's CAN identifier.
+    pub id: u32,
+    /// The interface (bus) name, for log lines.
+    pub interface: &'static str,
+}
+
+impl std::fmt::Display for CanEndpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}, id {:#x}", self.interface, self.id)
+    }
+}
+
+impl std::fmt::Debug for CanEndpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
 
 /// A CAN bus as the server uses it: non-blocking, with a file descriptor for the event loop.
 pub trait CanBus: AsRawFd {
@@ -202,13 +220,16 @@ impl Outbox {
 pub struct CanServer<B> {
     bus: B,
     name: String,
+    /// `name`, for the endpoints of its clients.
+    interface: &'static str,
     looped: EventLoop<CanEndpoint>,
 }
 
 impl<B: CanBus> CanServer<B> {
     /// A server on `bus` (named `name` in logs and errors); installs the middleware waker.
     pub fn new(bus: B, name: impl Into<String>, core: SharedCore<CanEndpoint>) -> io::Result<Self> {
-        Ok(Self { bus, name: name.into(), looped: EventLoop::new(core)? })
+        let name = name.into();
+        Ok(Self { interface: super::device_name(&name), bus, name, looped: EventLoop::new(core)? })
     }
 
     /// The bus name.
@@ -223,6 +244,7 @@ impl<B: CanBus> CanServer<B> {
             registry.register(&mut SourceFd(&self.bus.as_raw_fd()), BUS, Interest::READABLE)?;
             Ok(CanIo {
                 bus: &self.bus,
+                interface: self.interface,
                 registry: registry.try_clone()?,
                 // Frames may have come before the registration.
                 readable: true,
@@ -241,6 +263,7 @@ impl<B: CanBus> CanServer<B> {
 /// The bus as the event loop sees it.
 struct CanIo<'a, B> {
     bus: &'a B,
+    interface: &'static str,
     registry: Registry,
     /// Frames may be queued: readiness was reported, or the last turn stopped at [`MAX_READ_PER_TURN`].
     readable: bool,
@@ -305,7 +328,7 @@ impl<B: CanBus> Io<CanEndpoint> for CanIo<'_, B> {
             };
             let Some(id) = frame.id() else { continue };
             match frame.message() {
-                Ok(msg) => inbox.deliver(CanEndpoint(id), msg),
+                Ok(msg) => inbox.deliver(CanEndpoint { id, interface: self.interface }, msg),
                 Err(e) => tracing::debug!(id = format_args!("{id:#x}"), "CAN frame dropped: {e}"),
             }
         }
@@ -315,13 +338,13 @@ impl<B: CanBus> Io<CanEndpoint> for CanIo<'_, B> {
 
     fn send(&mut self, out: &mut Vec<Transmit<CanEndpoint>>, spent: &mut Spent<CanEndpoint>) {
         for t in out.drain(..) {
-            match Frame::with_message(t.to.0, &t.data) {
+            match Frame::with_message(t.to.id, &t.data) {
                 Ok(frame) => {
                     if !self.outbox.push(frame) {
-                        tracing::debug!(to = format_args!("{:#x}", t.to.0), "CAN outbox full, frame dropped");
+                        tracing::debug!(to = %t.to, "CAN outbox full, frame dropped");
                     }
                 }
-                Err(e) => tracing::warn!(to = format_args!("{:#x}", t.to.0), "cannot send over CAN FD: {e}"),
+                Err(e) => tracing::warn!(to = %t.to, "cannot send over CAN FD: {e}"),
             }
             spent.buffers.push(t.data);
         }
@@ -342,6 +365,15 @@ mod tests {
     use super::*;
     use socketcan::Frame as _;
     use std::cell::RefCell;
+
+    /// Log lines name a client by its interface and CAN id in hexadecimal (the core logs peers with `{:?}`).
+    #[test]
+    fn endpoints_show_the_interface_and_the_id_in_hex() {
+        let e = CanEndpoint { id: 0x123, interface: crate::transport::device_name("can0") };
+        assert_eq!(format!("{e}"), "can0, id 0x123");
+        assert_eq!(format!("{e:?}"), "can0, id 0x123");
+        assert!(std::ptr::eq(e.interface, crate::transport::device_name("can0")), "one copy per name");
+    }
 
     #[test]
     fn socketcan_frames_carry_the_id_flag_and_padded_data() {

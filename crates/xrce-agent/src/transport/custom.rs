@@ -34,7 +34,7 @@ mod reader;
 mod shell;
 
 use std::io;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::sync_channel;
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -161,9 +161,23 @@ impl From<bool> for Mode {
     }
 }
 
-/// The core's name for an endpoint of a custom transport (see the module documentation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// The core's name for an endpoint of a custom transport (see the module documentation). Shown (`{}` and
+/// `{:?}`, so in the core's log lines) as the endpoint's members, `ip=2130706433, port=8888` (with
+/// `, address=N` in stream mode), while its agent knows it; as `endpoint #N` once forgotten.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct EndpointId(u64);
+
+impl std::fmt::Display for EndpointId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        shell::write_endpoint_name(*self, f)
+    }
+}
+
+impl std::fmt::Debug for EndpointId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
 
 /// Limits and timing of a custom agent.
 #[derive(Debug, Clone)]
@@ -261,8 +275,6 @@ pub struct CustomAgent {
     running: Option<Running>,
     /// The endpoints of the last run, kept for the next: the core keeps its clients across a restart.
     table: Option<EndpointTable>,
-    /// Endpoint ids drawn so far (see [`EndpointTable`]).
-    next_id: Arc<AtomicU64>,
 }
 
 impl std::fmt::Debug for CustomAgent {
@@ -311,7 +323,6 @@ impl CustomAgent {
             stop: Arc::new(AtomicBool::new(false)),
             running: None,
             table: None,
-            next_id: Arc::default(),
         })
     }
 
@@ -392,8 +403,7 @@ impl CustomAgent {
             stop: self.stop.clone(),
         };
         let reader = std::thread::Builder::new().name("xrce-custom-rx".into()).spawn(move || reader.run())?;
-        let mut table =
-            self.table.take().unwrap_or_else(|| EndpointTable::new(self.options.max_endpoints, self.next_id.clone()));
+        let mut table = self.table.take().unwrap_or_else(|| EndpointTable::new(self.options.max_endpoints));
         table.set_max(self.options.max_endpoints);
         let mut shell = Shell {
             name: self.name.clone(),

@@ -28,6 +28,23 @@ pub type DynMiddleware = Box<dyn Middleware + Send>;
 /// Longest a shell blocks without checking its stop flag.
 pub const MAX_BLOCK: Duration = Duration::from_millis(200);
 
+/// `name` as a `&'static str`, for peer types that must be `Copy` yet name their device in log lines (serial
+/// and CAN endpoints). Each distinct name is kept once for the life of the process: a few device paths and
+/// interfaces, not one per client.
+#[cfg(target_os = "linux")]
+pub(crate) fn device_name(name: &str) -> &'static str {
+    use std::collections::BTreeSet;
+    use std::sync::Mutex;
+    static NAMES: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
+    let mut names = NAMES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(known) = names.get(name) {
+        return known;
+    }
+    let leaked: &'static str = Box::leak(name.into());
+    names.insert(leaked);
+    leaked
+}
+
 /// Logs a message in hex at trace level (verbosity 6), as eProsima's agent does.
 pub fn hexdump(direction: &str, peer: &dyn std::fmt::Debug, bytes: &[u8]) {
     if tracing::enabled!(tracing::Level::TRACE) {

@@ -43,13 +43,28 @@ pub const MAX_BACKLOG: usize = 64 * 1024;
 /// How often a device that went away is tried again (the loop turns at least every [`MAX_BLOCK`]).
 pub const REOPEN_EVERY: Duration = Duration::from_millis(500);
 
-/// A client on a serial line: the line's index and the client's address (its frames' source).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// A client on a serial line: the line's index and the client's address (its frames' source). Shown (`{}`
+/// and `{:?}`, so in the core's log lines) as `/dev/ttyACM0, address 1`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SerialEndpoint {
     /// Index of the line (device) in the server.
     pub line: u16,
     /// Address of the client on that line.
     pub address: u8,
+    /// The line's device path (or pseudoterminal name), for log lines.
+    pub device: &'static str,
+}
+
+impl std::fmt::Display for SerialEndpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}, address {}", self.device, self.address)
+    }
+}
+
+impl std::fmt::Debug for SerialEndpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
 }
 
 /// One serial line: a device or a pseudoterminal master.
@@ -168,6 +183,7 @@ impl SerialServer {
                 registry.register(&mut SourceFd(&line.file.as_raw_fd()), token(index), Interest::READABLE)?;
                 lines.push(LineIo {
                     name: line.name.clone(),
+                    device: super::device_name(&line.name),
                     reopen: line.reopen.clone(),
                     line: Some(line),
                     decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
@@ -202,6 +218,8 @@ struct LineIo {
     /// The open line; none while its device is gone.
     line: Option<Line>,
     name: String,
+    /// `name`, for the endpoints of its clients.
+    device: &'static str,
     /// How to open the device again; none for a pseudoterminal the agent created.
     reopen: Option<Settings>,
     decoder: FrameDecoder<Vec<u8>>,
@@ -255,10 +273,10 @@ impl Io<SerialEndpoint> for SerialIo {
                         break;
                     }
                 };
-                let name = &l.name;
+                let (name, device) = (&l.name, l.device);
                 l.decoder.push(self.buf.get(..n).unwrap_or(&[]), |event| match event {
                     Event::Frame { src, payload, .. } => {
-                        inbox.deliver(SerialEndpoint { line: index, address: src }, payload);
+                        inbox.deliver(SerialEndpoint { line: index, address: src, device }, payload);
                     }
                     Event::Error(e) => tracing::debug!(line = %name, "frame dropped: {e}"),
                 });
@@ -420,6 +438,14 @@ mod tests {
     use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
     use std::sync::atomic::Ordering;
     use std::thread;
+
+    /// Log lines name a client by its device path and address (the core logs peers with `{:?}`).
+    #[test]
+    fn endpoints_show_the_device_path() {
+        let e = SerialEndpoint { line: 1, address: 3, device: crate::transport::device_name("/dev/ttyACM0") };
+        assert_eq!(format!("{e}"), "/dev/ttyACM0, address 3");
+        assert_eq!(format!("{e:?}"), "/dev/ttyACM0, address 3");
+    }
 
     /// A client on the pseudoterminal's slave side pings the agent (GET_INFO out of session) in a frame from
     /// address 1 and gets the INFO back in a frame from 0 to 1.

@@ -321,12 +321,12 @@ impl std::hash::Hash for Endpoint {
     }
 }
 
-/// `ip=2130706433 port=8888`; `-` for an unset member.
+/// `ip=2130706433, port=8888`; `-` for an unset member.
 impl fmt::Display for Endpoint {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for (i, (name, value)) in self.members().enumerate() {
             if i > 0 {
-                f.write_str(" ")?;
+                f.write_str(", ")?;
             }
             match value {
                 Some(v) => write!(f, "{name}={v}")?,
@@ -366,7 +366,7 @@ mod tests {
         assert_eq!(e.get::<String>("name").as_deref(), Ok("uart0"));
         assert_eq!(e.get_str("name"), Ok("uart0"));
         assert_eq!(e.check_complete(), Ok(()));
-        assert_eq!(e.to_string(), "bus=3 port=8888 ip=2130706433 id=18446744073709551615 name=\"uart0\"");
+        assert_eq!(e.to_string(), "bus=3, port=8888, ip=2130706433, id=18446744073709551615, name=\"uart0\"");
     }
 
     #[test]
@@ -406,7 +406,7 @@ mod tests {
         assert_eq!(e.check_complete(), Err(EndpointError::Unset("port".into())), "the first unset one");
         e.reset();
         assert_eq!(e.get::<u8>("bus"), Err(EndpointError::Unset("bus".into())));
-        assert_eq!(e.to_string(), "bus=- port=- ip=- id=- name=-");
+        assert_eq!(e.to_string(), "bus=-, port=-, ip=-, id=-, name=-");
         assert_eq!(EndpointDesc::new().endpoint().check_complete(), Ok(()), "no members: always complete");
     }
 

@@ -2,11 +2,12 @@
 //! names each endpoint with a small copyable [`EndpointId`] for the core, and writes the core's messages
 //! with the user's `write` (framed in stream mode).
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
+use std::fmt;
 use std::io::{self, Read};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use mio::event::Event;
 use xrce_proto::framing::serial::{encode_frame, max_encoded_len};
@@ -134,6 +135,33 @@ fn write_all(io: &dyn CustomAgentIo, to: &Endpoint, mut rest: &[u8]) -> io::Resu
     Ok(())
 }
 
+/// Endpoint ids, drawn for the whole process: never reused, whichever agent draws them.
+static NEXT_ID: AtomicU64 = AtomicU64::new(0);
+
+/// What each known endpoint id is shown as: the core only has the id to log, and the members live in the
+/// table of the loop thread. Bounded by the tables' bounds: an entry goes when its endpoint is forgotten.
+static NAMES: Mutex<BTreeMap<u64, Box<str>>> = Mutex::new(BTreeMap::new());
+
+fn names() -> std::sync::MutexGuard<'static, BTreeMap<u64, Box<str>>> {
+    NAMES.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// `ip=2130706433, port=8888` (`, address=N` in stream mode) for a known id, `endpoint #N` otherwise.
+pub(super) fn write_endpoint_name(id: EndpointId, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let name = names().get(&id.0).cloned();
+    match name {
+        Some(name) => f.write_str(&name),
+        None => write!(f, "endpoint #{}", id.0),
+    }
+}
+
+fn endpoint_name((endpoint, address): &(Endpoint, Option<u8>)) -> Box<str> {
+    match address {
+        Some(a) => format!("{endpoint}, address={a}").into(),
+        None => endpoint.to_string().into(),
+    }
+}
+
 /// The endpoints seen, each under an id the core uses as its peer: ids are never reused (the counter
 /// outlives a table lost with a failed loop, and the table outlives a restart, because the core keeps its
 /// clients' ids across both), and at most `max` endpoints are kept; a new one beyond that evicts the least
@@ -142,7 +170,6 @@ pub(super) struct EndpointTable {
     ids: HashMap<(Endpoint, Option<u8>), EndpointId>,
     entries: HashMap<EndpointId, Entry>,
     max: usize,
-    next: Arc<AtomicU64>,
     clock: u64,
 }
 
@@ -152,9 +179,9 @@ struct Entry {
 }
 
 impl EndpointTable {
-    /// An empty table drawing ids from `next`.
-    pub fn new(max: usize, next: Arc<AtomicU64>) -> Self {
-        Self { ids: HashMap::new(), entries: HashMap::new(), max: max.max(1), next, clock: 0 }
+    /// An empty table.
+    pub fn new(max: usize) -> Self {
+        Self { ids: HashMap::new(), entries: HashMap::new(), max: max.max(1), clock: 0 }
     }
 
     /// Changes the bound (applies from the next new endpoint).
@@ -181,8 +208,9 @@ impl EndpointTable {
                 None => break,
             }
         }
-        let id = EndpointId(self.next.fetch_add(1, Ordering::Relaxed));
-        tracing::debug!(endpoint = %key.0, address = ?key.1, ?id, "new custom endpoint");
+        let id = EndpointId(NEXT_ID.fetch_add(1, Ordering::Relaxed));
+        names().insert(id.0, endpoint_name(&key));
+        tracing::debug!(endpoint = %id, id = id.0, "new custom endpoint");
         self.ids.insert(key.clone(), id);
         self.entries.insert(id, Entry { key, used: self.clock });
         (id, evicted)
@@ -198,9 +226,10 @@ impl EndpointTable {
 
     fn evict(&mut self) -> Option<EndpointId> {
         let oldest = self.entries.iter().min_by_key(|(_, e)| e.used).map(|(id, _)| *id)?;
+        tracing::debug!(endpoint = %oldest, id = oldest.0, "custom endpoint table full, least recently used forgotten");
         let entry = self.entries.remove(&oldest)?;
         self.ids.remove(&entry.key);
-        tracing::debug!(endpoint = %entry.key.0, id = ?oldest, "custom endpoint table full, least recently used forgotten");
+        names().remove(&oldest.0);
         Some(oldest)
     }
 
@@ -208,6 +237,15 @@ impl EndpointTable {
     #[cfg(test)]
     pub fn len(&self) -> usize {
         self.entries.len()
+    }
+}
+
+impl Drop for EndpointTable {
+    fn drop(&mut self) {
+        let mut names = names();
+        for id in self.entries.keys() {
+            names.remove(&id.0);
+        }
     }
 }
 
@@ -225,7 +263,7 @@ mod tests {
 
     #[test]
     fn equal_endpoints_share_an_id_and_addresses_tell_peers_apart() {
-        let mut t = EndpointTable::new(8, Arc::default());
+        let mut t = EndpointTable::new(8);
         let (a, _) = t.intern(endpoint(1), None);
         assert_eq!(t.intern(endpoint(1), None), (a, None));
         let (b, _) = t.intern(endpoint(2), None);
@@ -239,7 +277,7 @@ mod tests {
     /// is not reused, so the core never sends one client's messages to another.
     #[test]
     fn the_least_recently_used_endpoint_is_evicted() {
-        let mut t = EndpointTable::new(2, Arc::default());
+        let mut t = EndpointTable::new(2);
         let (one, _) = t.intern(endpoint(1), None);
         let (two, _) = t.intern(endpoint(2), None);
         assert!(t.get(one).is_some(), "one used after two");
@@ -250,5 +288,21 @@ mod tests {
         let (two_again, evicted) = t.intern(endpoint(2), None);
         assert_eq!(evicted, Some(one), "one was used before three");
         assert!(two_again != two && two_again != three);
+    }
+
+    /// The core logs an endpoint id as the members the user declared, with the frame address in stream mode;
+    /// once forgotten, as its number.
+    #[test]
+    fn endpoint_ids_show_their_members() {
+        let mut t = EndpointTable::new(1);
+        let (a, _) = t.intern(endpoint(8888), None);
+        assert_eq!(format!("{a}"), "port=8888, host=\"localhost\"");
+        assert_eq!(format!("{a:?}"), "port=8888, host=\"localhost\"", "the core logs peers with {{:?}}");
+        let (b, evicted) = t.intern(endpoint(7000), Some(3));
+        assert_eq!(evicted, Some(a));
+        assert_eq!(format!("{b:?}"), "port=7000, host=\"localhost\", address=3");
+        assert_eq!(format!("{a:?}"), format!("endpoint #{}", a.0), "forgotten");
+        drop(t);
+        assert_eq!(format!("{b}"), format!("endpoint #{}", b.0), "gone with its table");
     }
 }
