@@ -21,6 +21,7 @@ use super::outbox::{Class, Outbox};
 use super::read::ReadTask;
 use super::session::{Resume, Streams, Unpinned};
 use super::stream::{fragment, ReliableOut};
+use super::timer::{Timer, TimerTable};
 use super::vecmap::VecMap;
 use super::{encode_into, encode_submessage, CoreConfig, CoreStats};
 use crate::bufpool::BufPool;
@@ -98,8 +99,8 @@ pub struct Connection<E> {
     pub acks_due: Vec<u8>,
     /// What it has to send.
     pub outbox: Outbox,
-    /// Next periodic turn: HEARTBEATs, liveliness, dead-client removal.
-    pub heartbeat_due: Option<Instant>,
+    /// Its periodic and liveness turns ([`TimerTable`]); probes and paced reads keep their own deadlines.
+    pub(crate) timers: TimerTable,
     /// The instant of its entry in the endpoint's timer queue, if one is queued.
     pub(super) timer_queued: Option<Instant>,
     /// A DELETE of the client itself: the endpoint removes it and answers.
@@ -148,7 +149,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             blocked: Vec::new(),
             acks_due: Vec::new(),
             outbox: Outbox::default(),
-            heartbeat_due: None,
+            timers: TimerTable::default(),
             timer_queued: None,
             delete_request: None,
             listed: Listed::default(),
@@ -200,14 +201,12 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     pub fn poll_timeout(&self) -> Option<Instant> {
         let probes = self.streams.rel_out.values().filter_map(ReliableOut::probe_due).min();
         let reads = self.reads.values().filter_map(ReadTask::wake_at).min();
-        [self.heartbeat_due, probes, reads, self.watch.due].into_iter().flatten().min()
+        [self.timers.next_timeout(), probes, reads].into_iter().flatten().min()
     }
 
     /// Starts the periodic turn if it is not running.
     pub fn arm_heartbeat(&mut self, now: Instant, period: Duration) {
-        if self.heartbeat_due.is_none() {
-            self.heartbeat_due = Some(now + period);
-        }
+        self.timers.set_if_unset(Timer::Heartbeat, now + period);
     }
 
     /// Runs what is due: tail-loss probes, paced reads, then the periodic turn (HEARTBEATs of streams with messages in
@@ -221,11 +220,10 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             }
             self.pump_reads(ctx, now);
         }
-        if self.watch.due.is_some_and(|due| now >= due) && self.liveness_turn(ctx, now) == Liveness::Remove {
+        if self.timers.is_expired(Timer::Liveness, now) && self.liveness_turn(ctx, now) == Liveness::Remove {
             return Liveness::Remove;
         }
-        if self.heartbeat_due.is_some_and(|due| now >= due) {
-            self.heartbeat_due = None;
+        if self.timers.take_expired(Timer::Heartbeat, now) {
             self.heartbeat_turn(ctx, now);
         }
         Liveness::Alive
@@ -275,7 +273,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 })
                 .collect();
             if !beats.is_empty() {
-                self.heartbeat_due = Some(now + config.heartbeat_period);
+                self.timers.set(Timer::Heartbeat, now + config.heartbeat_period);
             }
             for hb in beats {
                 self.send_control(ctx, &Submessage::Heartbeat(hb));

@@ -32,6 +32,7 @@ use xrce_proto::submessage::{GetInfo, Heartbeat};
 use xrce_proto::{BaseObjectRequest, ClientKey, ObjectId, RequestId, Submessage};
 
 use super::connection::{Connection, Ctx, Liveness};
+use super::timer::Timer;
 use super::{AgentCore, CoreConfig};
 use crate::middleware::Middleware;
 
@@ -41,8 +42,6 @@ pub const PROBES_BEFORE_TIMEOUT: u32 = 4;
 /// A client's liveness timer.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct Watch {
-    /// Next liveness turn.
-    pub due: Option<Instant>,
     /// Probed at once (see the module documentation): since when, and removed at `until` unless heard.
     suspect: Option<(Instant, Instant)>,
     /// Registered through the API and not heard from yet: not timed out.
@@ -79,20 +78,20 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     /// Starts watching a new client (`from_api`: registered through the library API, with no endpoint yet).
     pub(super) fn start_watch(&mut self, config: &CoreConfig, now: Instant, from_api: bool) {
         self.watch.unclaimed = from_api;
-        self.watch.due = Plan::of(self.hard_liveliness, config).map(|p| now + p.probe_from);
+        self.timers.set_opt(Timer::Liveness, Plan::of(self.hard_liveliness, config).map(|p| now + p.probe_from));
     }
 
     /// Probes the client at once; removed unless heard from within `grace`.
     pub(super) fn suspect(&mut self, now: Instant, grace: Duration) {
         if self.watch.suspect.is_none() {
             self.watch.suspect = Some((now, now + grace));
-            self.watch.due = Some(now);
+            self.timers.set(Timer::Liveness, now);
         }
     }
 
     /// The liveness turn: probe, re-arm, or say the client is to be removed.
     pub(super) fn liveness_turn<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) -> Liveness {
-        self.watch.due = None;
+        self.timers.stop(Timer::Liveness);
         let plan = Plan::of(self.hard_liveliness, ctx.config);
         if let Some((since, until)) = self.watch.suspect {
             if self.last_heard > since {
@@ -103,14 +102,14 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             } else {
                 self.probes = self.probes.saturating_add(1);
                 self.probe(ctx);
-                self.watch.due = Some((now + ctx.config.heartbeat_period).min(until));
+                self.timers.set(Timer::Liveness, (now + ctx.config.heartbeat_period).min(until));
                 return Liveness::Alive;
             }
         }
         let Some(plan) = plan else { return Liveness::Alive };
         if self.watch.unclaimed {
             if self.endpoint.is_none() {
-                self.watch.due = Some(now + plan.probe_from);
+                self.timers.set(Timer::Liveness, now + plan.probe_from);
                 return Liveness::Alive;
             }
             self.watch.unclaimed = false;
@@ -123,9 +122,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         if silent >= plan.probe_from {
             self.probes = self.probes.saturating_add(1);
             self.probe(ctx);
-            self.watch.due = Some((now + plan.interval).min(self.last_heard + plan.timeout));
+            self.timers.set(Timer::Liveness, (now + plan.interval).min(self.last_heard + plan.timeout));
         } else {
-            self.watch.due = Some(self.last_heard + plan.probe_from);
+            self.timers.set(Timer::Liveness, self.last_heard + plan.probe_from);
         }
         Liveness::Alive
     }

@@ -26,6 +26,7 @@ mod probe;
 mod read;
 mod session;
 mod stream;
+mod timer;
 mod vecmap;
 
 #[cfg(test)]
