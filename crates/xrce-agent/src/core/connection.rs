@@ -475,9 +475,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
     }
 
-    /// An ACKNACK for one of its reliable output streams: retransmits what it asks for (new messages the
-    /// window now allows are built when asked); pins its readers again once it acknowledges something after
-    /// a stall.
+    /// An ACKNACK for one of its reliable output streams: schedules what it asks for again (retransmissions,
+    /// like new messages the window now allows, are built when the endpoint asks for the client's next
+    /// message); pins its readers again once it acknowledges something after a stall.
     pub(crate) fn handle_acknack<M: Middleware>(
         &mut self,
         ctx: &mut Ctx<'_, E, M>,
@@ -487,13 +487,9 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         let period = ctx.config.heartbeat_period;
         let Some(out) = self.streams.rel_out.get_mut(&ack.stream_id) else { return };
         let before = out.first_unacked();
-        let mut built: Vec<Vec<u8>> = Vec::new();
-        out.on_acknack(ack, now, period, ctx.pool, |m| built.push(m));
+        out.on_acknack(ack, now, period, ctx.pool);
         let progressed = out.first_unacked() != before;
         let _ = out.arm_probe(now, period);
-        for m in built {
-            self.push(ctx, Class::Stream, m);
-        }
         if progressed && self.unpinned.take().is_some() {
             self.pin_readers(ctx, true);
         }

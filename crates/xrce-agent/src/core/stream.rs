@@ -318,9 +318,10 @@ impl ReliableOut {
         }
     }
 
-    /// Whether [`Self::flush`] would build a new message now.
+    /// Whether [`Self::flush`] would build a message now: a retransmission an ACKNACK asked for, or a new
+    /// message the window has room for. (A deferred retransmission goes with the next flush or ACKNACK.)
     pub fn has_buildable(&self) -> bool {
-        !self.pending.is_empty() && self.has_window_room()
+        self.sender.has_retransmission() || (!self.pending.is_empty() && self.has_window_room())
     }
 
     /// Frees the buffers of an idle stream (nothing in flight or queued), so idle sessions cost little.
@@ -417,16 +418,16 @@ impl ReliableOut {
         }
     }
 
-    /// An ACKNACK from the client: release what it has, resend what it misses (selective repeat, a repeat
-    /// deferred until the retransmission interval has passed). `period` is the HEARTBEAT period (it caps the
-    /// probe timeout).
+    /// An ACKNACK from the client: release what it has, schedule what it misses for the next
+    /// [`Self::flush`] (selective repeat, a repeat deferred until the retransmission interval has passed), so
+    /// retransmissions are copied out when the endpoint asks for the client's next message, not here.
+    /// `period` is the HEARTBEAT period (it caps the probe timeout).
     pub fn on_acknack(
         &mut self,
         ack: &AckNack,
         now: std::time::Instant,
         period: std::time::Duration,
         pool: &mut BufPool,
-        mut send: impl FnMut(Vec<u8>),
     ) {
         self.clock = to_engine(now);
         let bits = AckNackBits::from_wire(ack.first_unacked_seq_num, ack.nack_bitmap);
@@ -435,7 +436,6 @@ impl ReliableOut {
         for done in self.in_flight.drain(..usize::from(released).min(self.in_flight.len())) {
             pool.put(done.msg);
         }
-        self.retransmit(self.clock, pool, &mut send);
     }
 
     /// First unacknowledged sequence number.
@@ -553,11 +553,16 @@ mod tests {
         assert_eq!(out.heartbeat(0x80).map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((0, 15)));
         sent.clear();
         let ack = AckNack { first_unacked_seq_num: 4, nack_bitmap: [0, 1], stream_id: 0x80 };
-        out.on_acknack(&ack, now, std::time::Duration::from_millis(200), &mut pool, |m| sent.push(m));
-        assert_eq!(sent, vec![vec![0x81, 0x80, 4, 0, 4]]);
+        out.on_acknack(&ack, now, std::time::Duration::from_millis(200), &mut pool);
+        assert!(out.has_buildable(), "the NACKed message waits to be built");
+        // The retransmission first, then the 4 new messages the window now has room for.
+        out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
+        assert_eq!(sent.len(), 5);
+        assert_eq!(sent[0], vec![0x81, 0x80, 4, 0, 4]);
+        assert_eq!(sent.iter().skip(1).map(|m| seq_of(m)).collect::<Vec<_>>(), [16, 17, 18, 19]);
         sent.clear();
         out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
-        assert_eq!(sent.len(), 4);
+        assert!(sent.is_empty(), "a retransmission goes once");
     }
 
     /// The sequence number of a message.
@@ -581,12 +586,15 @@ mod tests {
         assert_eq!(out.arm_probe(t0, period), None, "no round trip known: the periodic HEARTBEAT covers it");
         let nack1 = AckNack { first_unacked_seq_num: 1, nack_bitmap: [0, 1], stream_id: 0x80 };
         let mut resent = Vec::new();
-        // Seq 0 acknowledged after 4 ms (the round trip), seq 1 NACKed: resent at once.
-        out.on_acknack(&nack1, t0 + 4 * ms, period, &mut pool, |m| resent.push(seq_of(&m)));
+        // Seq 0 acknowledged after 4 ms (the round trip), seq 1 NACKed: resent with the next flush.
+        out.on_acknack(&nack1, t0 + 4 * ms, period, &mut pool);
+        assert!(resent.is_empty(), "built when asked, not when the ACKNACK arrives");
+        out.flush(&header, 5, Some(t0 + 4 * ms), &mut pool, |m| resent.push(seq_of(&m)));
         assert_eq!(resent, [1]);
         // The same gap reported again by ACKNACKs already on their way: not again within the interval, the
         // 4 ms round trip (over the 2 ms floor).
-        out.on_acknack(&nack1, t0 + 5 * ms, period, &mut pool, |m| resent.push(seq_of(&m)));
+        out.on_acknack(&nack1, t0 + 5 * ms, period, &mut pool);
+        assert!(!out.has_buildable(), "a repeat within the interval is deferred");
         out.flush(&header, 5, Some(t0 + 7 * ms), &mut pool, |m| resent.push(seq_of(&m)));
         assert_eq!(resent, [1]);
         // Unacknowledged when the interval has passed: it goes again with the next flush.
