@@ -5,9 +5,9 @@
 //! ACKNACK). Each client has an [`Outbox`]; [`AgentCore::poll_transmit`](super::AgentCore::poll_transmit)
 //! takes, in this written order: the ACKNACKs owed (built from the input streams' state when asked), replies
 //! outside any session, every client's control messages (stream 0: HEARTBEAT, INFO, TIMESTAMP_REPLY,
-//! STATUS, probes), then every client's stream messages (reliable ones, retransmitted or new, built when asked;
-//! best-effort ones as delivered),
-//! one message per client in turn so that one busy client does not hold the others back.
+//! STATUS, probes), then every client's stream messages (reliable ones, retransmitted or new, built when
+//! asked; best-effort ones as delivered), one message per client in turn so that one busy client does not
+//! hold the others back.
 
 use std::collections::{HashMap, VecDeque};
 
