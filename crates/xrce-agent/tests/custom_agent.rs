@@ -489,6 +489,17 @@ struct PtyAgentIo {
     masters: Vec<File>,
 }
 
+/// The first pty master with bytes to read within `timeout`, if any.
+fn readable_line(masters: &[File], timeout: Duration) -> io::Result<Option<usize>> {
+    use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+    let mut fds: Vec<PollFd<'_>> = masters.iter().map(|m| PollFd::new(m.as_fd(), PollFlags::POLLIN)).collect();
+    let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);
+    if poll(&mut fds, PollTimeout::from(ms)).map_err(io::Error::from)? == 0 {
+        return Ok(None);
+    }
+    Ok(fds.iter().position(|f| f.revents().is_some_and(|r| r.contains(PollFlags::POLLIN))))
+}
+
 impl CustomAgentIo for PtyAgentIo {
     fn write(&self, to: &Endpoint, bytes: &[u8]) -> io::Result<usize> {
         let line = to.get::<u8>("line").map_err(io_error)?;
@@ -497,14 +508,7 @@ impl CustomAgentIo for PtyAgentIo {
     }
 
     fn read(&self, from: &mut Endpoint, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
-        let mut fds: Vec<PollFd<'_>> = self.masters.iter().map(|m| PollFd::new(m.as_fd(), PollFlags::POLLIN)).collect();
-        let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);
-        if poll(&mut fds, PollTimeout::from(ms)).map_err(io::Error::from)? == 0 {
-            return Ok(0);
-        }
-        let ready = fds.iter().position(|f| f.revents().is_some_and(|r| r.contains(PollFlags::POLLIN)));
-        let Some(line) = ready else { return Ok(0) };
+        let Some(line) = readable_line(&self.masters, timeout)? else { return Ok(0) };
         from.set("line", u8::try_from(line).map_err(io_error)?).map_err(io_error)?;
         let mut master = &self.masters[line];
         master.read(buf)
@@ -612,14 +616,7 @@ impl CustomAgentIo for PtyPacketAgentIo {
     }
 
     fn read(&self, from: &mut Endpoint, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
-        let mut fds: Vec<PollFd<'_>> = self.masters.iter().map(|m| PollFd::new(m.as_fd(), PollFlags::POLLIN)).collect();
-        let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);
-        if poll(&mut fds, PollTimeout::from(ms)).map_err(io::Error::from)? == 0 {
-            return Ok(0);
-        }
-        let ready = fds.iter().position(|f| f.revents().is_some_and(|r| r.contains(PollFlags::POLLIN)));
-        let Some(index) = ready else { return Ok(0) };
+        let Some(index) = readable_line(&self.masters, timeout)? else { return Ok(0) };
         let line = u8::try_from(index).map_err(io_error)?;
         from.set("line", line).map_err(io_error)?;
         from.set("port", line_port(line)).map_err(io_error)?;
