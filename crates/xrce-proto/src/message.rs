@@ -58,12 +58,6 @@ impl<'a> RawSubmessage<'a> {
     }
 }
 
-/// Where a submessage appended after `len` bytes of message starts: submessages are 4-aligned from the
-/// message start. Also the length eProsima's client sends a message of `len` bytes with (zero padding to 4).
-pub const fn submessage_start(len: usize) -> usize {
-    (len + 3) & !3
-}
-
 /// Iterator over the submessages of a message, advancing by `submessageLength` and 4-byte padding.
 ///
 /// It stops when fewer than 4 bytes remain (trailing padding), and after the first error (a length past the
@@ -219,7 +213,7 @@ mod tests {
 
     #[test]
     fn raw_submessage_views_and_alignment() {
-        assert_eq!([0, 1, 4, 5, 8].map(submessage_start), [0, 4, 4, 8, 8]);
+        assert_eq!([0, 1, 4, 5, 8].map(crate::layout::submessage_offset), [0, 4, 4, 8, 8]);
         // A HEARTBEAT, padding, then a last FRAGMENT of 2 bytes.
         let msg = [0x81, 0x80, 0, 0, 0x0B, 0x01, 5, 0, 0, 0, 1, 0, 0x80, 0, 0, 0, 0x0D, 0x03, 2, 0, 7, 8];
         let (_, mut subs) = parse(&msg).unwrap();

@@ -3,7 +3,7 @@
 
 use super::{seq, Parts, SUBHEADER};
 use crate::error::{Error, Result};
-use xrce_proto::message::submessage_start;
+use xrce_proto::layout::submessage_offset;
 use xrce_proto::{ClientKey, MessageHeader, StreamId};
 
 /// A best-effort output stream over a caller's buffer.
@@ -42,7 +42,7 @@ impl<'a> OutputBestEffort<'a> {
         if self.len == 0 {
             self.header_size
         } else {
-            submessage_start(self.len)
+            submessage_offset(self.len)
         }
     }
 
@@ -91,7 +91,7 @@ impl<'a> OutputBestEffort<'a> {
         if !self.flush || self.len == 0 {
             return None;
         }
-        let len = submessage_start(self.len);
+        let len = submessage_offset(self.len);
         let dst = out.get_mut(..len)?;
         let seq_nr = self.last_sent.wrapping_add(1);
         let header = MessageHeader::new(session_id, stream, seq_nr, key);

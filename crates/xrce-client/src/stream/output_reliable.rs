@@ -20,7 +20,7 @@
 
 use super::{seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
-use xrce_proto::message::submessage_start;
+use xrce_proto::layout::submessage_offset;
 use xrce_proto::reliable::{AckNackBits, Duration, FragmentPlan, Instant, SendLog, Sender, SeqNum};
 use xrce_proto::view::FragmentHead;
 use xrce_proto::{ClientKey, MessageHeader, StreamId};
@@ -327,8 +327,8 @@ impl<'a> OutputReliable<'a> {
         let cap = self.slot_capacity();
         let cur = self.last_written;
         let cur_len = self.len_of(cur);
-        let (target, at) = if cur_len > 0 && submessage_start(cur_len) + total <= cap {
-            (cur, submessage_start(cur_len))
+        let (target, at) = if cur_len > 0 && submessage_offset(cur_len) + total <= cap {
+            (cur, submessage_offset(cur_len))
         } else if self.header_len() + total <= cap {
             let next = self.next_slot();
             if !self.window_ok(next) {
@@ -394,8 +394,8 @@ impl<'a> OutputReliable<'a> {
     fn first_fragment_place(&self, min_first: usize) -> (u16, usize) {
         let cur = self.last_written;
         let cur_len = self.len_of(cur);
-        if cur_len > 0 && submessage_start(cur_len) + SUBHEADER + min_first <= self.slot_capacity() {
-            (cur, submessage_start(cur_len))
+        if cur_len > 0 && submessage_offset(cur_len) + SUBHEADER + min_first <= self.slot_capacity() {
+            (cur, submessage_offset(cur_len))
         } else {
             (self.next_slot(), self.header_len())
         }
@@ -525,7 +525,7 @@ impl<'a> OutputReliable<'a> {
     ) -> Option<usize> {
         let seq_nr = self.next_to_send(Instant::from_nanos(now))?;
         let len = self.len_of(seq_nr);
-        let padded = if self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { submessage_start(len) };
+        let padded = if self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { submessage_offset(len) };
         let dst = out.get_mut(..padded)?;
         let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
         dst.get_mut(hs..len)?.copy_from_slice(self.slots.content(seq_nr).get(hs..len)?);
