@@ -3,7 +3,7 @@
 
 use crate::cdr::{padding, Endianness, Error, Result, Writer};
 use crate::header::MessageHeader;
-use crate::submessage::{flag, id, Submessage, SubmessageHeader};
+use crate::submessage::{id, Submessage, SubmessageHeader};
 use crate::view::SubmessageId;
 
 /// Parses the header of `buf` and returns it with an iterator over the submessages that follow.
@@ -50,10 +50,9 @@ impl<'a> RawSubmessage<'a> {
 
     /// For a FRAGMENT, whether it completes the inner message (its LAST flag); `None` for other submessages.
     pub const fn fragment_last(&self) -> Option<bool> {
-        if self.header.id == id::FRAGMENT {
-            Some(self.header.flags & flag::LAST_FRAGMENT != 0)
-        } else {
-            None
+        match crate::view::FragmentHead::from_header(self.header) {
+            Some(head) => Some(head.last),
+            None => None,
         }
     }
 }
