@@ -52,6 +52,7 @@ fuzz_target!(|data: &[u8]| {
     let config = CoreConfig { max_clients: 16, max_reassembly_size: 1 << 16, ..CoreConfig::default() };
     let mut core = AgentCore::new(config, Ced::new(Arc::new(FallbackProfiles)));
     setup(&mut core, now);
+    let mut out = Vec::new();
     for (op, bytes) in xrce_fuzz::ops(data) {
         if op & 4 != 0 {
             now += Duration::from_millis(u64::from(op));
@@ -63,8 +64,8 @@ fuzz_target!(|data: &[u8]| {
         } else {
             core.handle_datagram(ep, bytes, now);
         }
-        while let Some(t) = core.poll_transmit(now) {
-            xrce_fuzz::assert_parses(&t.data, "agent");
+        while core.poll_transmit(now, &mut out).is_some() {
+            xrce_fuzz::assert_parses(&out, "agent");
         }
         if let Some(t) = core.poll_timeout() {
             assert!(t >= now || t + Duration::from_secs(1) >= now);

@@ -45,7 +45,8 @@ fn setup(core: &mut AgentCore<u8, Ced>, ep: u8, key: &str, now: Instant) {
         m.extend(hex(body));
         core.handle_datagram(ep, &m, now);
     }
-    while core.poll_transmit(now).is_some() {}
+    let mut out = Vec::new();
+    while core.poll_transmit(now, &mut out).is_some() {}
 }
 
 /// The first unacknowledged sequence number an ACKNACK in `msg` gives, if it has one.
@@ -73,7 +74,8 @@ fn main() {
         &hex(&format!("81 80 06 00 08 01 10 00 00 11 00 16 {stream} 00 00 01 ff ff 00 00 00 00 00 00")),
         now,
     );
-    while core.poll_transmit(now).is_some() {}
+    let mut out = Vec::new();
+    while core.poll_transmit(now, &mut out).is_some() {}
 
     let mut pub_seq: u16 = 6;
     let mut sub_next: u16 = 0;
@@ -101,10 +103,10 @@ fn main() {
             pub_seq = pub_seq.wrapping_add(1);
             sent += 1;
         }
-        while let Some(t) = core.poll_transmit(now) {
-            if t.to == PUBLISHER {
-                pub_acked = acknowledged(&t.data).unwrap_or(pub_acked);
-            } else if let Ok((header, subs)) = message::parse(&t.data) {
+        while let Some(to) = core.poll_transmit(now, &mut out) {
+            if to == PUBLISHER {
+                pub_acked = acknowledged(&out).unwrap_or(pub_acked);
+            } else if let Ok((header, subs)) = message::parse(&out) {
                 {
                     // A DATA, or the last FRAGMENT of a sample the MTU made the agent cut.
                     let data = subs
@@ -121,7 +123,6 @@ fn main() {
                     }
                 }
             }
-            core.recycle(t.data);
         }
         if !best_effort {
             // The subscriber acknowledges everything it received.
@@ -131,11 +132,10 @@ fn main() {
             if let Ok(n) = message::encode_single(&mut buf, &header, &Submessage::AckNack(ack), Endianness::Little) {
                 core.handle_datagram(SUBSCRIBER, &buf[..n], now);
             }
-            while let Some(t) = core.poll_transmit(now) {
-                if t.to == PUBLISHER {
-                    pub_acked = acknowledged(&t.data).unwrap_or(pub_acked);
+            while let Some(to) = core.poll_transmit(now, &mut out) {
+                if to == PUBLISHER {
+                    pub_acked = acknowledged(&out).unwrap_or(pub_acked);
                 }
-                core.recycle(t.data);
             }
         }
         idle_rounds = if delivered == before { idle_rounds + 1 } else { 0 };

@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use common::{create_client_msg, decode_owned, unlimited, Client, Out};
-use xrce_agent::core::{AgentCore, CoreConfig};
+use xrce_agent::core::{AgentCore, CoreConfig, Transmit};
 use xrce_agent::middleware::dds::Dds;
 use xrce_agent::middleware::profiles::StoreProfiles;
 use xrce_dds::{BridgeConfig, DdsBridge, EndpointQos, RawWriter, ReceivedSample, SampleQueue};
@@ -95,7 +95,10 @@ impl DdsHarness {
     fn drain(&mut self) {
         loop {
             let mut acks = Vec::new();
-            while let Some(t) = self.core.poll_transmit(Instant::now()) {
+            let mut buf = Vec::new();
+            while let Some(t) =
+                self.core.poll_transmit(Instant::now(), &mut buf).map(|to| Transmit { to, data: buf.clone() })
+            {
                 let (header, subs) = decode_owned(&t.data);
                 if header.stream_id.is_reliable() {
                     let next = self.next_in.entry((t.to, header.stream_id.0)).or_insert(0);

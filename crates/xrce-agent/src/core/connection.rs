@@ -17,15 +17,18 @@ use xrce_proto::{
 
 use super::droplog::DropLog;
 use super::object::ObjectTable;
-use super::outbox::{Class, Outbox};
+use xrce_proto::submessage::TimestampReply;
+
+use super::outbox::{Class, Control, Outbox};
 use super::read::ReadTask;
 use super::session::{Resume, Streams, Unpinned};
-use super::stream::{fragment, ReliableOut};
+use super::stream::ReliableOut;
 use super::timer::{Timer, TimerTable};
 use super::vecmap::VecMap;
 use super::{encode_into, encode_submessage, CoreConfig, CoreStats};
 use crate::bufpool::BufPool;
 use crate::middleware::{EntityRef, Middleware};
+use xrce_proto::reliable::FragmentPlan;
 
 /// What a connection borrows from the endpoint while it runs.
 pub(crate) struct Ctx<'a, E, M> {
@@ -233,18 +236,18 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         let period = ctx.config.heartbeat_period;
         // Collected first: sending needs the connection, which the streams borrow. A stream re-arms its probe
         // itself when `fire_probe` says so.
-        let beats: Vec<_> = self
+        let beats: Vec<u8> = self
             .streams
             .rel_out
             .iter_mut()
             .filter_map(|(sid, out)| {
                 let due = out.probe_due().filter(|due| *due <= now)?;
-                out.fire_probe(*sid, due, now, period).0
+                out.fire_probe(*sid, due, now, period).0.map(|_| *sid)
             })
             .collect();
-        for hb in beats {
+        for sid in beats {
             ctx.stats.tail_probes = ctx.stats.tail_probes.saturating_add(1);
-            self.send_control(ctx, &Submessage::Heartbeat(hb));
+            self.queue_heartbeat(ctx, sid);
         }
     }
 
@@ -263,20 +266,20 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
         // A dead client gets liveness probes instead ([`liveness`](super::liveness)).
         if !dead {
-            let beats: Vec<_> = self
+            let beats: Vec<u8> = self
                 .streams
                 .rel_out
                 .iter_mut()
                 .filter_map(|(sid, stream)| {
                     stream.trim();
-                    stream.heartbeat(*sid)
+                    stream.has_unacked().then_some(*sid)
                 })
                 .collect();
             if !beats.is_empty() {
                 self.timers.set(Timer::Heartbeat, now + config.heartbeat_period);
             }
-            for hb in beats {
-                self.send_control(ctx, &Submessage::Heartbeat(hb));
+            for sid in beats {
+                self.queue_heartbeat(ctx, sid);
             }
         }
     }
@@ -298,30 +301,78 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
 
     // ---- output ----
 
-    /// Queues a message; dropped (counted) when the client has no endpoint yet, or, the oldest stream
-    /// message (which a reliable stream retransmits), when its outbox is full.
-    pub(crate) fn push<M>(&mut self, ctx: &mut Ctx<'_, E, M>, class: Class, data: Vec<u8>) {
+    /// Queues a stream message; dropped (counted) when the client has no endpoint yet, or, the oldest
+    /// (best effort), when its outbox is full.
+    pub(crate) fn push_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, data: Vec<u8>) {
         if self.endpoint.is_none() {
             ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
             ctx.pool.put(data);
             return;
         }
-        if let Some(dropped) = self.outbox.push(class, data, ctx.config.max_transmit_queue) {
+        if let Some(dropped) = self.outbox.push_stream(data, ctx.config.max_transmit_queue) {
             ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
             ctx.pool.put(dropped);
         }
         ctx.stats.messages_out = ctx.stats.messages_out.saturating_add(1);
     }
 
-    /// Encodes a one-submessage control message on stream 0.
+    /// Queues a control message on stream 0; dropped (counted) without an endpoint or past
+    /// [`MAX_CONTROL_QUEUE`](super::outbox::MAX_CONTROL_QUEUE).
+    pub(crate) fn push_control<M>(&mut self, ctx: &mut Ctx<'_, E, M>, item: Control) {
+        let refused = if self.endpoint.is_none() { Err(item) } else { self.outbox.push_control(item) };
+        match refused {
+            Ok(()) => ctx.stats.messages_out = ctx.stats.messages_out.saturating_add(1),
+            Err(item) => {
+                ctx.stats.messages_dropped_out = ctx.stats.messages_dropped_out.saturating_add(1);
+                if let Control::Message(data) = item {
+                    ctx.pool.put(data);
+                }
+            }
+        }
+    }
+
+    /// Encodes a one-submessage control message on stream 0 and queues it.
     pub(crate) fn send_control<M>(&mut self, ctx: &mut Ctx<'_, E, M>, sub: &Submessage<'_>) {
         let header = self.header(StreamId::NONE, 0);
         let mut buf = ctx.pool.get();
         if encode_into(&mut buf, &header, sub) {
-            self.push(ctx, Class::Control, buf);
+            self.push_control(ctx, Control::Message(buf));
         } else {
             ctx.pool.put(buf);
         }
+    }
+
+    /// Queues a HEARTBEAT of reliable output stream `stream`, built with its range when sent.
+    pub(crate) fn queue_heartbeat<M>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: u8) {
+        self.push_control(ctx, Control::Heartbeat(stream));
+    }
+
+    /// Writes its next control message into `buf` (replacing its content): intents are encoded now (a
+    /// HEARTBEAT with its stream's range, skipped once all is acknowledged; a TIMESTAMP_REPLY with the
+    /// transmit time). False when none waits.
+    pub(crate) fn poll_control<M>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant, buf: &mut Vec<u8>) -> bool {
+        let header = self.header(StreamId::NONE, 0);
+        while let Some(item) = self.outbox.pop_control() {
+            let sub = match item {
+                Control::Message(data) => {
+                    ctx.pool.put(std::mem::replace(buf, data));
+                    return true;
+                }
+                Control::Heartbeat(sid) => match self.streams.rel_out.get(&sid).and_then(|out| out.heartbeat(sid)) {
+                    Some(hb) => Submessage::Heartbeat(hb),
+                    None => continue,
+                },
+                Control::TimestampReply { originate, received } => Submessage::TimestampReply(TimestampReply {
+                    transmit_timestamp: ctx.wall_time(now),
+                    receive_timestamp: received,
+                    originate_timestamp: originate,
+                }),
+            };
+            if encode_into(buf, &header, &sub) {
+                return true;
+            }
+        }
+        false
     }
 
     /// Schedules an ACKNACK for a reliable input stream; a batch of messages costs one per stream.
@@ -331,18 +382,16 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
     }
 
-    /// The next ACKNACK owed, built now from its stream's state.
-    pub(crate) fn next_acknack(&mut self, pool: &mut BufPool) -> Option<Vec<u8>> {
+    /// Writes the next ACKNACK owed into `buf`, built now from its stream's state; false when none is owed.
+    pub(crate) fn write_acknack(&mut self, buf: &mut Vec<u8>) -> bool {
         while !self.acks_due.is_empty() {
             let stream = self.acks_due.remove(0);
             let Some(ack) = self.streams.rel_in.get(&stream).map(|s| s.acknack(stream)) else { continue };
-            let mut buf = pool.get();
-            if encode_into(&mut buf, &self.header(StreamId::NONE, 0), &Submessage::AckNack(ack)) {
-                return Some(buf);
+            if encode_into(buf, &self.header(StreamId::NONE, 0), &Submessage::AckNack(ack)) {
+                return true;
             }
-            pool.put(buf);
         }
-        None
+        false
     }
 
     /// Sends a STATUS reply on `stream`.
@@ -416,16 +465,20 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 msg.extend_from_slice(&sub);
                 ctx.pool.put(sub);
                 if stream.kind() == StreamKind::None {
-                    self.push(ctx, Class::Control, msg);
+                    self.push_control(ctx, Control::Message(msg));
                 } else {
-                    self.push(ctx, Class::Stream, msg);
+                    self.push_stream(ctx, msg);
                     self.outbox.leave_open(stream.0);
                 }
             }
             StreamKind::Reliable => {
                 let (window, max_pending) = (ctx.config.reliable_window, ctx.config.max_pending_per_stream);
                 let out = self.streams.rel_out.get_or_insert_with(stream.0, || ReliableOut::new(window, max_pending));
-                let queued = if fits { out.queue_one(sub) } else { out.queue(fragment(&sub, self.mtu, header_len)) };
+                let queued = if fits {
+                    out.queue_one(sub)
+                } else {
+                    out.queue_cut(sub, FragmentPlan::for_mtu(self.mtu, header_len))
+                };
                 if !queued {
                     if let Some(held_back) = ctx.admit_warning(self.endpoint, now) {
                         tracing::warn!(client = %self.key, stream = stream.0, held_back, "reliable output queue full: message dropped");
@@ -446,32 +499,29 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         self.outbox.has(Class::Stream) || self.streams.rel_out.values().any(ReliableOut::has_buildable)
     }
 
-    /// Its next stream message, built now: when no built one waits, every reliable stream with room in its
-    /// window builds its messages from what waits (deferred retransmissions due first, then new messages,
-    /// several submessages each when the client reads packed messages).
-    pub(crate) fn next_stream_message<M>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant) -> Option<Vec<u8>> {
-        if !self.outbox.has(Class::Stream) {
-            let ready: Vec<u8> =
-                self.streams.rel_out.iter().filter(|(_, out)| out.has_buildable()).map(|(sid, _)| *sid).collect();
-            for sid in ready {
-                self.flush_stream(ctx, StreamId(sid), now);
+    /// Writes its next stream message into `buf` (replacing its content), in this order: a reliable
+    /// stream's message built now (a retransmission due, else new submessages its window has room for,
+    /// several per message when the client reads packed messages), then best-effort messages as delivered.
+    /// False when none waits.
+    pub(crate) fn poll_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, now: Instant, buf: &mut Vec<u8>) -> bool {
+        let (session_id, key, mtu, period) = (self.session_id, self.key, self.pack_mtu(), ctx.config.heartbeat_period);
+        for (sid, out) in self.streams.rel_out.iter_mut() {
+            if !out.has_buildable() {
+                continue;
+            }
+            let header = MessageHeader::new(session_id, StreamId(*sid), 0, key);
+            if out.build_next(&header, mtu, now, ctx.pool, buf) {
+                let _ = out.arm_probe(now, period);
+                ctx.stats.messages_out = ctx.stats.messages_out.saturating_add(1);
+                return true;
             }
         }
-        self.outbox.pop(Class::Stream)
-    }
-
-    /// Builds what is queued on a reliable output stream, as far as its window allows (several submessages
-    /// per message when the client reads packed messages).
-    fn flush_stream<M>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: StreamId, now: Instant) {
-        let header = self.header(stream, 0);
-        let mtu = self.pack_mtu();
-        let period = ctx.config.heartbeat_period;
-        let Some(out) = self.streams.rel_out.get_mut(&stream.0) else { return };
-        let mut built: Vec<Vec<u8>> = Vec::new();
-        out.flush(&header, mtu, Some(now), ctx.pool, |m| built.push(m));
-        let _ = out.arm_probe(now, period);
-        for m in built {
-            self.push(ctx, Class::Stream, m);
+        match self.outbox.pop_stream() {
+            Some(data) => {
+                ctx.pool.put(std::mem::replace(buf, data));
+                true
+            }
+            None => false,
         }
     }
 

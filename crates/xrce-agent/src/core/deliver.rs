@@ -11,7 +11,7 @@ use xrce_proto::layout::{submessage_offset, DataSubmessage};
 use xrce_proto::{BaseObjectRequest, ClientKey, MessageHeader, ObjectId};
 
 use super::connection::{Connection, Ctx};
-use super::outbox::Class;
+use super::outbox::Control;
 use crate::middleware::{EntityRef, Middleware, SampleRef};
 
 /// Samples one read task may send per turn on a best-effort stream (reliable streams are bounded by their
@@ -140,10 +140,10 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         });
         if let Some(msg) = new_message {
             if best_effort {
-                self.push(ctx, Class::Stream, msg);
+                self.push_stream(ctx, msg);
                 self.outbox.leave_open(stream.0);
             } else {
-                self.push(ctx, Class::Control, msg);
+                self.push_control(ctx, Control::Message(msg));
             }
         }
         taken

@@ -46,7 +46,7 @@ fn ack_up_to(key: u32, session: u8, first_unacked: u16) -> Vec<u8> {
 /// What was sent, by kind: (destination, submessage id, STATUS_AGENT status if any).
 fn sent(core: &mut TestCore) -> Vec<(u16, u8, Option<StatusCode>)> {
     let mut out = Vec::new();
-    while let Some(t) = core.poll_transmit(Instant::now()) {
+    while let Some(t) = core.next_transmit(Instant::now()) {
         let (_, subs) = message::parse(&t.data).expect("header");
         for raw in subs.flatten() {
             let status = match raw.decode() {

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use xrce_proto::message::parse;
 use xrce_proto::object::AgentRepresentation;
-use xrce_proto::submessage::{ActivityInfo, Create, DataFormat, DataPayload, GetInfo, Info, ReadData, TimestampReply};
+use xrce_proto::submessage::{ActivityInfo, Create, DataFormat, DataPayload, GetInfo, Info, ReadData};
 use xrce_proto::view::{self, FragmentHead, SubmessageId};
 use xrce_proto::{
     BaseObjectReply, BaseObjectRequest, MessageHeader, ObjectId, ObjectKind, ObjectVariant, RawSubmessage,
@@ -16,6 +16,7 @@ use xrce_proto::{
 };
 
 use super::connection::{Connection, Ctx};
+use super::outbox::Control;
 use super::read::{ReadRequest, ReadTask};
 use super::session::{Resume, Unpinned};
 use super::stream::{InAction, ReliableIn};
@@ -373,12 +374,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             }
             Submessage::Timestamp(t) => {
                 let received = ctx.wall_time(now);
-                let reply = TimestampReply {
-                    transmit_timestamp: received,
-                    receive_timestamp: received,
-                    originate_timestamp: t,
-                };
-                self.send_control(ctx, &Submessage::TimestampReply(reply));
+                self.push_control(ctx, Control::TimestampReply { originate: t, received });
                 Flow::Continue
             }
             Submessage::CreateClient(_) => {

@@ -59,7 +59,7 @@ use crate::middleware::Middleware;
 /// ~10 % of reliable 16 B throughput: interleaved runs, 12 won 6 of 8 pairs).
 const PUMP_AFTER_WRITES: usize = 12;
 
-/// A message for the shell to send.
+/// A message and where it goes: what a shell sends (and the core's replies outside a session, queued).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Transmit<E> {
     /// Destination.
@@ -305,65 +305,78 @@ where
 
     /// The ACKNACKs owed for the reliable messages handled so far, one at a time, before the batch's samples
     /// are delivered: a shell can send them ahead of the rest, so a publisher whose history is full gets its
-    /// slots back without waiting for the deliveries to be built. [`Self::poll_transmit`] yields them too; the
-    /// built-in shells call this first.
-    pub(crate) fn poll_acknack(&mut self) -> Option<Transmit<E>> {
+    /// slots back without waiting for the deliveries to be built. Written into `buf` like
+    /// [`Self::poll_transmit`], which yields them too; the UDP shell calls this first.
+    pub(crate) fn poll_acknack(&mut self, buf: &mut Vec<u8>) -> Option<E> {
         while let Some(key) = self.acking.pop_front() {
             let Some(client) = self.clients.get_mut(&key) else { continue };
-            let ack = client.next_acknack(&mut self.pool);
+            let built = client.write_acknack(buf);
             if client.acks_due.is_empty() {
                 client.listed.acking = false;
             } else {
                 self.acking.push_back(key);
             }
-            if let (Some(data), Some(to)) = (ack, client.endpoint) {
+            if let (true, Some(to)) = (built, client.endpoint) {
                 self.stats.messages_out = self.stats.messages_out.saturating_add(1);
-                return Some(Transmit { to, data });
+                return Some(to);
             }
         }
         None
     }
 
-    /// The next message to send, in this order: ACKNACKs owed (built now, with their stream's latest state),
-    /// replies outside a session, clients' control messages, clients' stream messages, one client per turn
-    /// ([`outbox`]). A client's reliable messages are built when its turn comes (`now` stamps them for
-    /// retransmission), packing every sample that waits by then.
-    pub fn poll_transmit(&mut self, now: Instant) -> Option<Transmit<E>> {
+    /// Writes the next message to send into `buf` (replacing its content; its allocation is reused or
+    /// swapped for one the core holds) and returns where it goes. The order is written down: ACKNACKs owed,
+    /// replies outside a session, every client's control messages, then every client's stream messages, one
+    /// client per turn ([`outbox`]). Everything whose content depends on the moment is built now: ACKNACKs
+    /// and HEARTBEATs from their stream's latest state, TIMESTAMP_REPLY with the transmit time, a reliable
+    /// stream's retransmission or new message (packing every sample that waits by then, `now` stamping it for
+    /// retransmission). The message fits the client's MTU, fixed at CREATE_CLIENT from the client's and the
+    /// transport's.
+    pub fn poll_transmit(&mut self, now: Instant, buf: &mut Vec<u8>) -> Option<E> {
         self.end_batch();
-        if let Some(t) = self.poll_acknack() {
-            return Some(t);
+        if let Some(to) = self.poll_acknack(buf) {
+            return Some(to);
         }
         if let Some(t) = self.stateless.pop_front() {
-            return Some(t);
+            self.pool.put(std::mem::replace(buf, t.data));
+            return Some(t.to);
         }
-        while let Some((to, data)) = self.turns.next(outbox::Class::Control, &mut self.clients, client_outbox) {
-            match to {
-                Some(to) => return Some(Transmit { to, data }),
-                None => self.pool.put(data),
-            }
-        }
-        while let Some(key) = self.turns.pop(outbox::Class::Stream) {
-            let Some(client) = self.clients.get_mut(&key) else { continue };
-            let mut ctx = endpoint_ctx!(self);
-            let msg = client.next_stream_message(&mut ctx, now);
-            let to = client.endpoint;
-            if client.has_stream_work() {
-                self.turns.requeue(outbox::Class::Stream, key);
-            } else {
-                client.outbox.set_listed(outbox::Class::Stream, false);
-            }
-            // Building armed its tail-loss probe.
-            Self::queue_timer(&mut self.timers, key, client);
-            match (msg, to) {
-                (Some(data), Some(to)) => return Some(Transmit { to, data }),
-                (Some(data), None) => self.pool.put(data),
-                (None, _) => {}
+        for class in [outbox::Class::Control, outbox::Class::Stream] {
+            while let Some(key) = self.turns.pop(class) {
+                let Some(client) = self.clients.get_mut(&key) else { continue };
+                let mut ctx = endpoint_ctx!(self);
+                let built = match class {
+                    outbox::Class::Control => client.poll_control(&mut ctx, now, buf),
+                    outbox::Class::Stream => client.poll_stream(&mut ctx, now, buf),
+                };
+                let more = match class {
+                    outbox::Class::Control => client.outbox.has(class),
+                    outbox::Class::Stream => client.has_stream_work(),
+                };
+                if more {
+                    self.turns.requeue(class, key);
+                } else {
+                    client.outbox.set_listed(class, false);
+                }
+                // Building armed its tail-loss probe.
+                Self::queue_timer(&mut self.timers, key, client);
+                if let (true, Some(to)) = (built, client.endpoint) {
+                    return Some(to);
+                }
             }
         }
         None
     }
 
-    /// Gives the buffer of a sent [`Transmit`] back for reuse (optional; saves an allocation per message).
+    /// [`Self::poll_transmit`] into a fresh buffer, for the unit tests.
+    #[cfg(test)]
+    pub(crate) fn next_transmit(&mut self, now: Instant) -> Option<Transmit<E>> {
+        let mut data = Vec::new();
+        self.poll_transmit(now, &mut data).map(|to| Transmit { to, data })
+    }
+
+    /// Gives a spare buffer to the core's pool (optional: the buffers a shell passes to
+    /// [`Self::poll_transmit`] are its own, and the core keeps those it swaps out).
     pub fn recycle(&mut self, data: Vec<u8>) {
         self.pool.put(data);
     }
@@ -372,7 +385,8 @@ where
     /// For the integration tests' harness (`tests/common`), not an API: hidden from the documentation.
     #[doc(hidden)]
     pub fn pending_transmits(&self) -> usize {
-        let queued: usize = self.clients.values().map(|c| c.outbox.len() + c.acks_due.len()).sum();
+        let queued: usize =
+            self.clients.values().map(|c| c.outbox.len() + c.acks_due.len() + usize::from(c.has_stream_work())).sum();
         queued + self.stateless.len() + usize::from(self.unserved_writes.is_some())
     }
 
@@ -557,11 +571,6 @@ where
         tracing::info!(client = %key, "client removed");
         true
     }
-}
-
-/// The outbox and the address of a client, for [`outbox::TurnLists::next`].
-fn client_outbox<E: Copy>(client: &mut Box<Connection<E>>) -> (&mut outbox::Outbox, Option<E>) {
-    (&mut client.outbox, client.endpoint)
 }
 
 /// Encodes `header` + one submessage.

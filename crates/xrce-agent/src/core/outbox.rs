@@ -1,21 +1,33 @@
 //! What one client has to send, by class, and the endpoint's round-robin over clients.
 //!
-//! The core no longer keeps one global queue of built messages that it re-sorts (ACKNACKs rotated to the
-//! front, packing keyed on a push counter, oldest-dropped when full, which could be a STATUS or an
-//! ACKNACK). Each client has an [`Outbox`]; [`AgentCore::poll_transmit`](super::AgentCore::poll_transmit)
-//! takes, in this written order: the ACKNACKs owed (built from the input streams' state when asked), replies
-//! outside any session, every client's control messages (stream 0: HEARTBEAT, INFO, TIMESTAMP_REPLY,
-//! STATUS, probes), then every client's stream messages (reliable ones, retransmitted or new, built when
-//! asked; best-effort ones as delivered), one message per client in turn so that one busy client does not
-//! hold the others back.
+//! Each client has an [`Outbox`]; [`AgentCore::poll_transmit`](super::AgentCore::poll_transmit) writes, in
+//! this written order, into the shell's buffer: the ACKNACKs owed (built from the input streams' state),
+//! replies outside any session, every client's control messages (stream 0: HEARTBEAT and TIMESTAMP_REPLY
+//! kept as intents and encoded then, with the stream's latest range and the send time; STATUS, INFO and
+//! probes encoded when decided), then every client's stream messages (reliable ones, retransmitted or new,
+//! built then; best-effort ones as delivered, packed), one message per client in turn so that one busy client
+//! does not hold the others back.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 
 use xrce_proto::ClientKey;
 
 /// Control messages a client may have waiting; beyond it the newest are dropped (counted): they are
 /// answers and heartbeats the client asks for again.
 pub const MAX_CONTROL_QUEUE: usize = 256;
+
+/// A control message waiting on stream 0.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Control {
+    /// A HEARTBEAT of this reliable output stream, built with its range when sent (none if all is
+    /// acknowledged by then).
+    Heartbeat(u8),
+    /// A TIMESTAMP_REPLY: the client's originate time and when its TIMESTAMP arrived; the transmit time is
+    /// read when sent.
+    TimestampReply { originate: xrce_proto::Time, received: xrce_proto::Time },
+    /// A message encoded when decided (STATUS, INFO, GET_INFO probes, READ data on stream 0).
+    Message(Vec<u8>),
+}
 
 /// The two classes of a client's outgoing messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,7 +41,7 @@ pub enum Class {
 /// One client's outgoing messages.
 #[derive(Debug, Default)]
 pub struct Outbox {
-    control: VecDeque<Vec<u8>>,
+    control: VecDeque<Control>,
     stream: VecDeque<Vec<u8>>,
     /// The newest stream message is a best-effort one of this stream that may take more DATA.
     open_best_effort: Option<u8>,
@@ -39,26 +51,25 @@ pub struct Outbox {
 }
 
 impl Outbox {
-    fn queue(&mut self, class: Class) -> &mut VecDeque<Vec<u8>> {
-        match class {
-            Class::Control => &mut self.control,
-            Class::Stream => &mut self.stream,
+    /// Queues a control message; false (dropped) when the control queue is full. A HEARTBEAT of a stream
+    /// whose HEARTBEAT already waits is not queued twice (it is built with the latest range anyway).
+    pub fn push_control(&mut self, item: Control) -> Result<(), Control> {
+        if self.control.len() >= MAX_CONTROL_QUEUE {
+            return Err(item);
         }
+        if matches!(item, Control::Heartbeat(_)) && self.control.contains(&item) {
+            return Ok(());
+        }
+        self.control.push_back(item);
+        Ok(())
     }
 
-    /// Queues a message; returns the message dropped to make room (the oldest stream message, or this
-    /// control message when the control queue is full).
-    pub fn push(&mut self, class: Class, msg: Vec<u8>, max_stream: usize) -> Option<Vec<u8>> {
-        match class {
-            Class::Control if self.control.len() >= MAX_CONTROL_QUEUE => return Some(msg),
-            Class::Control => self.control.push_back(msg),
-            Class::Stream => {
-                self.open_best_effort = None;
-                self.stream.push_back(msg);
-                if self.stream.len() > max_stream.max(1) {
-                    return self.stream.pop_front();
-                }
-            }
+    /// Queues a stream message; returns the oldest, dropped to make room past `max_stream`.
+    pub fn push_stream(&mut self, msg: Vec<u8>, max_stream: usize) -> Option<Vec<u8>> {
+        self.open_best_effort = None;
+        self.stream.push_back(msg);
+        if self.stream.len() > max_stream.max(1) {
+            return self.stream.pop_front();
         }
         None
     }
@@ -77,10 +88,15 @@ impl Outbox {
         }
     }
 
-    /// The next message of `class`.
-    pub fn pop(&mut self, class: Class) -> Option<Vec<u8>> {
-        let msg = self.queue(class).pop_front();
-        if class == Class::Stream && self.stream.is_empty() {
+    /// The next control message.
+    pub fn pop_control(&mut self) -> Option<Control> {
+        self.control.pop_front()
+    }
+
+    /// The next stream message.
+    pub fn pop_stream(&mut self) -> Option<Vec<u8>> {
+        let msg = self.stream.pop_front();
+        if self.stream.is_empty() {
             self.open_best_effort = None;
         }
         msg
@@ -144,32 +160,6 @@ impl TurnLists {
         }
     }
 
-    /// The next client of `clients` whose turn it is for `class`: its address and its message; the client
-    /// goes to the back of the list while it has more. `outbox` gives a client's outbox and address; gone
-    /// clients are skipped.
-    pub fn next<T, A>(
-        &mut self,
-        class: Class,
-        clients: &mut HashMap<ClientKey, T>,
-        outbox: impl Fn(&mut T) -> (&mut Outbox, A),
-    ) -> Option<(A, Vec<u8>)> {
-        while let Some(key) = self.list(class).pop_front() {
-            let Some(client) = clients.get_mut(&key) else { continue };
-            let (out, address) = outbox(client);
-            let Some(msg) = out.pop(class) else {
-                out.set_listed(class, false);
-                continue;
-            };
-            if out.has(class) {
-                self.list(class).push_back(key);
-            } else {
-                out.set_listed(class, false);
-            }
-            return Some((address, msg));
-        }
-        None
-    }
-
     /// The client whose turn it is for `class`, taken off the list (the caller puts it back with
     /// [`Self::requeue`] while it has more, or unlists it).
     pub fn pop(&mut self, class: Class) -> Option<ClientKey> {
@@ -191,44 +181,49 @@ impl TurnLists {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn itself(o: &mut Outbox) -> (&mut Outbox, ()) {
-        (o, ())
-    }
+    use std::collections::HashMap;
 
     #[test]
-    fn control_never_waits_behind_stream_messages_and_clients_take_turns() {
+    fn clients_take_turns_one_message_each() {
         let (a, b) = (ClientKey([0, 0, 0, 1]), ClientKey([0, 0, 0, 2]));
         let mut boxes: HashMap<ClientKey, Outbox> = HashMap::new();
         let mut turns = TurnLists::default();
         for (key, tag) in [(a, 1u8), (a, 2), (a, 3), (b, 10)] {
             let out = boxes.entry(key).or_default();
-            assert_eq!(out.push(Class::Stream, vec![tag], 100), None);
+            assert_eq!(out.push_stream(vec![tag], 100), None);
             turns.enlist(key, out, Class::Stream);
         }
-        let out = boxes.entry(b).or_default();
-        assert_eq!(out.push(Class::Control, vec![99], 100), None);
-        turns.enlist(b, out, Class::Control);
         let mut sent = Vec::new();
-        for class in [Class::Control, Class::Stream] {
-            while let Some((_, msg)) = turns.next(class, &mut boxes, itself) {
-                sent.push(msg[0]);
+        while let Some(key) = turns.pop(Class::Stream) {
+            let out = boxes.get_mut(&key).unwrap();
+            sent.push(out.pop_stream().unwrap()[0]);
+            if out.has(Class::Stream) {
+                turns.requeue(Class::Stream, key);
+            } else {
+                out.set_listed(Class::Stream, false);
             }
         }
-        assert_eq!(sent, vec![99, 1, 10, 2, 3], "control first, then one message per client in turn");
+        assert_eq!(sent, vec![1, 10, 2, 3], "one message per client in turn");
         assert!(boxes.values().all(Outbox::is_empty));
     }
 
     #[test]
     fn a_full_stream_queue_drops_its_oldest_and_control_is_bounded_apart() {
         let mut out = Outbox::default();
-        assert_eq!(out.push(Class::Stream, vec![1], 2), None);
-        assert_eq!(out.push(Class::Stream, vec![2], 2), None);
-        assert_eq!(out.push(Class::Stream, vec![3], 2), Some(vec![1]));
-        for i in 0..MAX_CONTROL_QUEUE {
-            assert_eq!(out.push(Class::Control, vec![i as u8], 2), None);
+        assert_eq!(out.push_stream(vec![1], 2), None);
+        assert_eq!(out.push_stream(vec![2], 2), None);
+        assert_eq!(out.push_stream(vec![3], 2), Some(vec![1]));
+        assert_eq!(out.push_control(Control::Heartbeat(0x80)), Ok(()));
+        assert_eq!(out.push_control(Control::Heartbeat(0x80)), Ok(()));
+        assert_eq!(out.len(), 3, "one HEARTBEAT intent per stream");
+        for i in 1..MAX_CONTROL_QUEUE {
+            assert_eq!(out.push_control(Control::Message(vec![i as u8])), Ok(()));
         }
-        assert_eq!(out.push(Class::Control, vec![7], 2), Some(vec![7]), "the newest control message is refused");
-        assert_eq!(out.pop(Class::Control), Some(vec![0]), "queued control messages are kept");
+        assert_eq!(
+            out.push_control(Control::Message(vec![7])),
+            Err(Control::Message(vec![7])),
+            "the newest is refused"
+        );
+        assert_eq!(out.pop_control(), Some(Control::Heartbeat(0x80)), "queued control messages are kept");
     }
 }

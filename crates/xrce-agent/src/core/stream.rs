@@ -5,10 +5,12 @@
 use std::collections::VecDeque;
 
 use xrce_proto::layout::submessage_offset;
-use xrce_proto::reliable::{self, AckNackBits, FragmentPlan, FragmentSink, InputWindow, Reassembler, Reassembly};
+use xrce_proto::reliable::{
+    self, AckNackBits, Chunks, FragmentPlan, FragmentSink, InputWindow, Reassembler, Reassembly,
+};
 use xrce_proto::reliable::{SendLog, Sender, SeqNum};
 use xrce_proto::submessage::{AckNack, Heartbeat};
-use xrce_proto::view::{self, FragmentHead, SubmessageId};
+use xrce_proto::view::FragmentHead;
 use xrce_proto::MessageHeader;
 
 use super::probe::{engine_duration, from_engine, to_engine};
@@ -252,6 +254,15 @@ impl SendLog for FlightLog<'_> {
     }
 }
 
+/// A submessage waiting for room in a reliable stream's window: whole, or cut into FRAGMENTs (spec §9.6)
+/// one message at a time as they are built, each chunk copied once, straight into its message.
+#[derive(Debug, Clone)]
+struct Waiting {
+    sub: Vec<u8>,
+    /// The chunks still to send, when it is cut.
+    cut: Option<Chunks>,
+}
+
 /// Reliable output stream (spec §9.5): up to `window` messages in flight, kept for retransmission until
 /// acknowledged; more are queued (bounded) instead of being dropped as eProsima does. Acknowledgement,
 /// retransmission (selective, a repeat deferred as the client does, see [`Sender`]) and tail-loss probes are
@@ -262,9 +273,11 @@ pub struct ReliableOut {
     window: u16,
     /// Messages in flight, `first_unacked + i`.
     in_flight: VecDeque<Flight>,
-    /// Message bodies (submessages without header) waiting for room in the window.
-    pending: VecDeque<Vec<u8>>,
-    /// Bytes in `pending`.
+    /// Submessages waiting for room in the window.
+    pending: VecDeque<Waiting>,
+    /// Messages `pending` will take (a submessage cut into FRAGMENTs takes one per chunk left).
+    pending_msgs: usize,
+    /// Bytes in `pending` not yet sent.
     pending_bytes: usize,
     max_pending: usize,
     /// `first_unacked` when last checked with unacknowledged messages, and since when it has not moved.
@@ -283,6 +296,7 @@ impl ReliableOut {
             window: window.clamp(1, 16),
             in_flight: VecDeque::new(),
             pending: VecDeque::new(),
+            pending_msgs: 0,
             pending_bytes: 0,
             max_pending,
             watch: None,
@@ -295,9 +309,9 @@ impl ReliableOut {
         (&mut self.sender, FlightLog { first, msgs: &mut self.in_flight })
     }
 
-    /// Bodies that can still be queued.
+    /// Messages that can still be queued.
     pub fn room(&self) -> usize {
-        self.max_pending.saturating_sub(self.pending.len())
+        self.max_pending.saturating_sub(self.pending_msgs)
     }
 
     /// Whether another message may go in flight.
@@ -307,19 +321,19 @@ impl ReliableOut {
 
     /// Whether another sample may be queued: what waits still fits the window's free messages (one
     /// message per body without packing, `mtu` bytes each with it). Messages are built only when the
-    /// endpoint asks for the client's next one ([`Self::flush`] then packs what waits), so this is what
+    /// endpoint asks for the client's next one ([`Self::build_next`] then packs what waits), so this is what
     /// bounds a read task's samples per turn.
     pub fn can_take(&self, mtu: usize) -> bool {
         let free = usize::from(self.window).saturating_sub(self.in_flight.len());
         if mtu == 0 {
-            self.pending.len() < free
+            self.pending_msgs < free
         } else {
             self.pending_bytes < free.saturating_mul(mtu)
         }
     }
 
-    /// Whether [`Self::flush`] would build a message now: a retransmission an ACKNACK asked for, or a new
-    /// message the window has room for. (A deferred retransmission goes with the next flush or ACKNACK.)
+    /// Whether [`Self::build_next`] would build a message now: a retransmission an ACKNACK asked for, or a new
+    /// message the window has room for. (A deferred retransmission goes with the next build or ACKNACK.)
     pub fn has_buildable(&self) -> bool {
         self.sender.has_retransmission() || (!self.pending.is_empty() && self.has_window_room())
     }
@@ -339,87 +353,111 @@ impl ReliableOut {
         !self.in_flight.is_empty()
     }
 
-    /// Queues one message body. Returns false when there is no room.
-    pub fn queue_one(&mut self, body: Vec<u8>) -> bool {
+    /// Queues one submessage (header included) that fits a message. Returns false when there is no room.
+    pub fn queue_one(&mut self, sub: Vec<u8>) -> bool {
         if self.room() == 0 {
             return false;
         }
-        self.pending_bytes += body.len();
-        self.pending.push_back(body);
+        self.pending_msgs += 1;
+        self.pending_bytes += sub.len();
+        self.pending.push_back(Waiting { sub, cut: None });
         true
     }
 
-    /// Queues message bodies; all or nothing. Returns false when there is no room.
-    pub fn queue(&mut self, bodies: Vec<Vec<u8>>) -> bool {
-        if bodies.len() > self.room() {
+    /// Queues a submessage too large for one message, to be cut into FRAGMENTs as `plan` says (all of them
+    /// or none). Returns false when there is no room.
+    pub fn queue_cut(&mut self, sub: Vec<u8>, plan: FragmentPlan) -> bool {
+        let count = plan.count(sub.len());
+        if count > self.room() {
             return false;
         }
-        self.pending_bytes += bodies.iter().map(Vec::len).sum::<usize>();
-        self.pending.extend(bodies);
+        self.pending_msgs += count;
+        self.pending_bytes += sub.len();
+        self.pending.push_back(Waiting { cut: Some(plan.chunks(sub.len())), sub });
         true
     }
 
-    /// Sends the deferred retransmissions that are due at `now` (see [`Sender`]).
-    fn retransmit(&mut self, now: reliable::Instant, pool: &mut BufPool, send: &mut impl FnMut(Vec<u8>)) {
-        let (sender, mut log) = self.log();
-        while let Some(seq) = sender.next_retransmission(&mut log, now) {
-            if let Some(f) = log.msgs.get(usize::from(log.first.distance(seq))) {
-                send(pool.copy_of(&f.msg));
-            }
-        }
-    }
-
-    /// Moves queued bodies into the window, stamping `header` with their sequence numbers; `send` gets
-    /// each complete message, after any deferred retransmission now due. Consecutive bodies that are not
-    /// FRAGMENTs share a message up to `mtu` bytes (each submessage 4-aligned, as every client reads them); a
-    /// FRAGMENT always travels alone (spec §9.6).
-    pub fn flush(
+    /// Writes this stream's next message into `buf` (replacing its content), built now: a retransmission
+    /// due at `now` first (see [`Sender`]), else queued bodies the window has room for, stamped with `header`
+    /// and the next sequence number, a copy kept in flight. Consecutive bodies that are not FRAGMENTs share a
+    /// message up to `mtu` bytes (each submessage 4-aligned, as every client reads them); a FRAGMENT always
+    /// travels alone (spec §9.6). False when there is nothing to send.
+    pub fn build_next(
         &mut self,
         header: &MessageHeader,
         mtu: usize,
-        now: Option<std::time::Instant>,
+        now: std::time::Instant,
         pool: &mut BufPool,
-        mut send: impl FnMut(Vec<u8>),
-    ) {
-        if let Some(now) = now {
-            self.clock = to_engine(now);
-            self.retransmit(self.clock, pool, &mut send);
-        }
-        while self.in_flight.len() < usize::from(self.window) {
-            let Some(body) = self.pending.pop_front() else { break };
-            self.pending_bytes = self.pending_bytes.saturating_sub(body.len());
-            let seq = self.sender.last_sent().next();
-            let h = MessageHeader { sequence_nr: seq.0, ..*header };
-            let mut msg = pool.get();
-            msg.resize(h.size(), 0);
-            if h.encode(&mut msg).is_err() {
-                continue;
+        buf: &mut Vec<u8>,
+    ) -> bool {
+        self.clock = to_engine(now);
+        let clock = self.clock;
+        let (sender, mut log) = self.log();
+        while let Some(seq) = sender.next_retransmission(&mut log, clock) {
+            if let Some(f) = log.msgs.get(usize::from(log.first.distance(seq))) {
+                buf.clear();
+                buf.extend_from_slice(&f.msg);
+                return true;
             }
-            let packable = |b: &[u8]| view::submessage_id(b) != Some(SubmessageId::Fragment);
-            let pack = packable(&body);
-            msg.extend_from_slice(&body);
-            pool.put(body);
+        }
+        if self.in_flight.len() >= usize::from(self.window) {
+            return false;
+        }
+        let seq = self.sender.last_sent().next();
+        let h = MessageHeader { sequence_nr: seq.0, ..*header };
+        buf.clear();
+        buf.resize(h.size(), 0);
+        if h.encode(buf).is_err() {
+            return false;
+        }
+        let Some(first) = self.pending.front_mut() else { return false };
+        if let Some(chunks) = &mut first.cut {
+            // The next FRAGMENT of a cut submessage, alone in its message.
+            let Some(c) = chunks.next() else {
+                // Nothing to cut (never queued so): dropped rather than left in the way.
+                if let Some(empty) = self.pending.pop_front() {
+                    self.pending_msgs = self.pending_msgs.saturating_sub(1);
+                    pool.put(empty.sub);
+                }
+                return false;
+            };
+            let part = first.sub.get(c.offset..c.offset + c.len).unwrap_or(&[]);
+            // A chunk never exceeds the MTU, itself a u16.
+            let head = FragmentHead { last: c.last, chunk_len: u16::try_from(part.len()).unwrap_or(u16::MAX) };
+            buf.extend_from_slice(&head.to_bytes());
+            buf.extend_from_slice(part);
+            self.pending_msgs = self.pending_msgs.saturating_sub(1);
+            self.pending_bytes = self.pending_bytes.saturating_sub(c.len);
+            if c.last {
+                if let Some(done) = self.pending.pop_front() {
+                    pool.put(done.sub);
+                }
+            }
+        } else {
+            // Whole submessages, as many as fit `mtu` when packing.
             while let Some(next) = self.pending.front() {
-                let at = submessage_offset(msg.len());
-                if !pack || !packable(next) || at + next.len() > mtu {
+                let at = submessage_offset(buf.len());
+                let first_one = at == buf.len() && buf.len() == h.size();
+                if !first_one && (next.cut.is_some() || at + next.sub.len() > mtu) {
                     break;
                 }
                 let Some(next) = self.pending.pop_front() else { break };
-                self.pending_bytes = self.pending_bytes.saturating_sub(next.len());
-                msg.resize(at, 0);
-                msg.extend_from_slice(&next);
-                pool.put(next);
+                self.pending_msgs = self.pending_msgs.saturating_sub(1);
+                self.pending_bytes = self.pending_bytes.saturating_sub(next.sub.len());
+                buf.resize(at, 0);
+                buf.extend_from_slice(&next.sub);
+                pool.put(next.sub);
             }
-            send(pool.copy_of(&msg));
-            let clock = self.clock;
-            self.in_flight.push_back(Flight { msg, sent: clock, resent: false });
-            let (sender, mut log) = self.log();
-            sender.on_sent(&mut log, seq, clock);
         }
+        let msg = pool.copy_of(buf);
+        self.in_flight.push_back(Flight { msg, sent: clock, resent: false });
+        let (sender, mut log) = self.log();
+        sender.on_sent(&mut log, seq, clock);
+        true
     }
 
     /// An ACKNACK from the client: release what it has, schedule what it misses for the next
-    /// [`Self::flush`] (selective repeat, a repeat deferred until the retransmission interval has passed), so
+    /// [`Self::build_next`] (selective repeat, a repeat deferred until the retransmission interval has passed), so
     /// retransmissions are copied out when the endpoint asks for the client's next message, not here.
     /// `period` is the HEARTBEAT period (it caps the probe timeout).
     pub fn on_acknack(
@@ -501,24 +539,6 @@ impl ReliableOut {
     }
 }
 
-/// Cuts one submessage (header included) into FRAGMENT bodies that fit messages of `mtu` bytes with a
-/// header of `header_len` bytes (spec §9.6). No padding anywhere: the C client glues what follows the
-/// FRAGMENT header into its reassembly buffer.
-pub fn fragment(submessage: &[u8], mtu: usize, header_len: usize) -> Vec<Vec<u8>> {
-    FragmentPlan::for_mtu(mtu, header_len)
-        .chunks(submessage.len())
-        .map(|c| {
-            let part = submessage.get(c.offset..c.offset + c.len).unwrap_or(&[]);
-            // A chunk never exceeds `mtu`, itself a u16.
-            let head = FragmentHead { last: c.last, chunk_len: u16::try_from(part.len()).unwrap_or(u16::MAX) };
-            let mut body = Vec::with_capacity(FragmentHead::SIZE + part.len());
-            body.extend_from_slice(&head.to_bytes());
-            body.extend_from_slice(part);
-            body
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -543,12 +563,11 @@ mod tests {
     #[test]
     fn reliable_out_window_and_retransmission() {
         let now = std::time::Instant::now();
-        let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
         let mut out = ReliableOut::new(16, 100);
-        assert!(out.queue((0..20u8).map(|i| vec![i]).collect()));
+        assert!((0..20u8).all(|i| out.queue_one(vec![i])));
         let mut sent = Vec::new();
         let mut pool = BufPool::default();
-        out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
+        sent.extend(flush_all(&mut out, 5, now, &mut pool));
         assert_eq!(sent.len(), 16);
         assert_eq!(out.heartbeat(0x80).map(|h| (h.first_unacked_seq_nr, h.last_unacked_seq_nr)), Some((0, 15)));
         sent.clear();
@@ -556,13 +575,24 @@ mod tests {
         out.on_acknack(&ack, now, std::time::Duration::from_millis(200), &mut pool);
         assert!(out.has_buildable(), "the NACKed message waits to be built");
         // The retransmission first, then the 4 new messages the window now has room for.
-        out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
+        sent.extend(flush_all(&mut out, 5, now, &mut pool));
         assert_eq!(sent.len(), 5);
         assert_eq!(sent[0], vec![0x81, 0x80, 4, 0, 4]);
         assert_eq!(sent.iter().skip(1).map(|m| seq_of(m)).collect::<Vec<_>>(), [16, 17, 18, 19]);
         sent.clear();
-        out.flush(&header, 5, Some(now), &mut pool, |m| sent.push(m));
+        sent.extend(flush_all(&mut out, 5, now, &mut pool));
         assert!(sent.is_empty(), "a retransmission goes once");
+    }
+
+    /// Builds every message the stream would send now.
+    fn flush_all(out: &mut ReliableOut, mtu: usize, now: std::time::Instant, pool: &mut BufPool) -> Vec<Vec<u8>> {
+        let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
+        let mut sent = Vec::new();
+        let mut buf = Vec::new();
+        while out.build_next(&header, mtu, now, pool, &mut buf) {
+            sent.push(buf.clone());
+        }
+        sent
     }
 
     /// The sequence number of a message.
@@ -576,12 +606,11 @@ mod tests {
         let t0 = from_engine(to_engine(std::time::Instant::now()));
         let ms = std::time::Duration::from_millis(1);
         let period = 200 * ms;
-        let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
         let mut out = ReliableOut::new(16, 100);
         let mut pool = BufPool::default();
         let mut sent = Vec::new();
-        assert!(out.queue((0..3u8).map(|i| vec![i]).collect()));
-        out.flush(&header, 5, Some(t0), &mut pool, |m| sent.push(m));
+        assert!((0..3u8).all(|i| out.queue_one(vec![i])));
+        sent.extend(flush_all(&mut out, 5, t0, &mut pool));
         assert_eq!(sent.len(), 3);
         assert_eq!(out.arm_probe(t0, period), None, "no round trip known: the periodic HEARTBEAT covers it");
         let nack1 = AckNack { first_unacked_seq_num: 1, nack_bitmap: [0, 1], stream_id: 0x80 };
@@ -589,16 +618,16 @@ mod tests {
         // Seq 0 acknowledged after 4 ms (the round trip), seq 1 NACKed: resent with the next flush.
         out.on_acknack(&nack1, t0 + 4 * ms, period, &mut pool);
         assert!(resent.is_empty(), "built when asked, not when the ACKNACK arrives");
-        out.flush(&header, 5, Some(t0 + 4 * ms), &mut pool, |m| resent.push(seq_of(&m)));
+        resent.extend(flush_all(&mut out, 5, t0 + 4 * ms, &mut pool).iter().map(|m| seq_of(m)));
         assert_eq!(resent, [1]);
         // The same gap reported again by ACKNACKs already on their way: not again within the interval, the
         // 4 ms round trip (over the 2 ms floor).
         out.on_acknack(&nack1, t0 + 5 * ms, period, &mut pool);
         assert!(!out.has_buildable(), "a repeat within the interval is deferred");
-        out.flush(&header, 5, Some(t0 + 7 * ms), &mut pool, |m| resent.push(seq_of(&m)));
+        resent.extend(flush_all(&mut out, 5, t0 + 7 * ms, &mut pool).iter().map(|m| seq_of(m)));
         assert_eq!(resent, [1]);
         // Unacknowledged when the interval has passed: it goes again with the next flush.
-        out.flush(&header, 5, Some(t0 + 8 * ms), &mut pool, |m| resent.push(seq_of(&m)));
+        resent.extend(flush_all(&mut out, 5, t0 + 8 * ms, &mut pool).iter().map(|m| seq_of(m)));
         assert_eq!(resent, [1, 1]);
         // The probe: twice the 4 ms round trip after arming.
         assert_eq!(out.arm_probe(t0 + 8 * ms, period), Some(t0 + 16 * ms));
@@ -625,12 +654,24 @@ mod tests {
     }
 
     #[test]
-    fn fragments_fit_the_mtu() {
-        let sub = vec![7u8; 1000];
-        let frags = fragment(&sub, 508, 4);
-        assert_eq!(frags.len(), 2);
-        assert!(frags.iter().all(|f| f.len() + 4 <= 508));
-        let heads: Vec<_> = frags.iter().map(|f| FragmentHead::parse(f).map(|h| (h.last, h.chunk_len))).collect();
+    fn fragments_are_cut_as_built_and_fit_the_mtu() {
+        let now = std::time::Instant::now();
+        let mut out = ReliableOut::new(16, 100);
+        let mut pool = BufPool::default();
+        let sub: Vec<u8> = (0..1000u32).map(|i| i as u8).collect();
+        assert!(out.queue_one(vec![1, 2, 3]));
+        assert!(out.queue_cut(sub.clone(), FragmentPlan::for_mtu(508, 4)));
+        assert!(out.queue_one(vec![4, 5, 6]));
+        assert_eq!(out.room(), 96, "the cut submessage counts one message per FRAGMENT");
+        let msgs = flush_all(&mut out, 508, now, &mut pool);
+        assert_eq!(msgs.len(), 4, "the FRAGMENTs travel alone, nothing joins them");
+        assert!(msgs.iter().all(|m| m.len() <= 508));
+        let heads: Vec<_> =
+            msgs[1..3].iter().map(|m| FragmentHead::parse(&m[4..]).map(|h| (h.last, h.chunk_len))).collect();
         assert_eq!(heads, [Some((false, 500)), Some((true, 500))]);
+        let joined: Vec<u8> = msgs[1..3].iter().flat_map(|m| m[4 + FragmentHead::SIZE..].to_vec()).collect();
+        assert_eq!(joined, sub);
+        assert_eq!(msgs[3][4..], [4, 5, 6]);
+        assert_eq!(out.room(), 100);
     }
 }

@@ -35,7 +35,7 @@ pub(crate) fn create_client(key: u32) -> Vec<u8> {
 /// Every ACKNACK among the queued transmits: (first, bitmap, stream).
 pub(crate) fn acknacks(core: &mut TestCore) -> Vec<(u16, u16, u8)> {
     let mut out = Vec::new();
-    while let Some(t) = core.poll_transmit(Instant::now()) {
+    while let Some(t) = core.next_transmit(Instant::now()) {
         let (_, subs) = message::parse(&t.data).expect("header");
         for raw in subs.flatten() {
             if let Ok(Submessage::AckNack(a)) = raw.decode() {
@@ -51,7 +51,7 @@ fn heartbeat_before_any_message_of_a_reliable_stream_is_acknacked() {
     let mut core = core_with(CoreConfig::default());
     let now = Instant::now();
     core.handle_datagram(7, &create_client(0xAABB_CCDD), now);
-    while core.poll_transmit(Instant::now()).is_some() {}
+    while core.next_transmit(Instant::now()).is_some() {}
     // The client's first reliable message (seq 0) was lost; its HEARTBEAT announces 0..=0.
     let header = MessageHeader::new(0x81, StreamId::NONE, 0, ClientKey::INVALID);
     let hb = Heartbeat { first_unacked_seq_nr: 0, last_unacked_seq_nr: 0, stream_id: 0x80 };
@@ -70,17 +70,18 @@ fn acknacks_can_be_taken_before_the_batch_is_delivered() {
     let mut core = core_with(CoreConfig::default());
     let now = Instant::now();
     core.handle_datagram(7, &create_client(0xAABB_CCDD), now);
-    while core.poll_transmit(Instant::now()).is_some() {}
+    while core.next_transmit(Instant::now()).is_some() {}
     // A reliable WRITE_DATA to an unknown writer: it is acknowledged all the same (the stream advanced).
     let header = MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID);
     let request = BaseObjectRequest { request_id: RequestId(1), object_id: ObjectId::new(9, ObjectKind::DataWriter) };
     let write = Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data: &[1, 2, 3, 4] });
     core.handle_datagram(7, &encode(&header, &write), now);
-    let early = core.poll_acknack().expect("an ACKNACK is owed");
-    let (_, subs) = message::parse(&early.data).expect("header");
+    let mut early = Vec::new();
+    assert_eq!(core.poll_acknack(&mut early), Some(7), "an ACKNACK is owed");
+    let (_, subs) = message::parse(&early).expect("header");
     let kinds: Vec<_> = subs.flatten().map(|raw| raw.decode().map(|s| matches!(s, Submessage::AckNack(_)))).collect();
     assert_eq!(kinds, vec![Ok(true)]);
-    assert!(core.poll_acknack().is_none(), "one ACKNACK per stream");
+    assert!(core.poll_acknack(&mut early).is_none(), "one ACKNACK per stream");
     assert_eq!(acknacks(&mut core), vec![], "and it is not sent twice");
 }
 
@@ -198,11 +199,11 @@ fn hostile_input_in_a_session_is_warned_about_once_per_second() {
         if let Some(setup) = setup {
             core.handle_datagram(PEER, &setup, t0);
         }
-        while core.poll_transmit(t0).is_some() {}
+        while core.next_transmit(t0).is_some() {}
         let warnings = warnings_of(|| {
             for i in 0..2000u16 {
                 core.handle_datagram(PEER, &datagram(i), t0 + Duration::from_micros(u64::from(i) * 100));
-                while core.poll_transmit(t0).is_some() {}
+                while core.next_transmit(t0).is_some() {}
             }
         });
         counts.push((what, warnings));

@@ -4,9 +4,9 @@
 //! notes their readiness, reads without blocking and sends or queues what the core produced. An
 //! [`EventLoop`] waits for readiness, the core's next timer or the middleware's waker (a `mio::Waker` behind
 //! a [`WakeFlag`]), answers the `-d` discovery responder if the server has one, then [`Driver::drive`] runs one
-//! turn: give back the buffers sent last turn, hand the input to the core, send the ACKNACKs owed at once
+//! turn: take back the buffers sent last turn, hand the input to the core, send the ACKNACKs owed at once
 //! (UDP), run the library API's jobs, poll the middleware if it woke, run due timers, take every message to
-//! send, send them. The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
+//! send (written by the core into the driver's spare buffers), send them. The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
 
 use std::fmt::Debug;
 use std::hash::Hash;
@@ -95,17 +95,27 @@ pub struct Spent<E> {
     pub gone: Vec<E>,
 }
 
-/// A shell's turn state: the messages of the turn and what comes back from sending them.
+/// Spare buffers a driver keeps for the core to write messages into; more go to the core's pool.
+const MAX_SPARE: usize = 256;
+
+/// A shell's turn state: the messages of the turn, what comes back from sending them, and the buffers the
+/// core writes the next ones into.
 #[derive(Debug)]
 pub struct Driver<E> {
     out: Vec<Transmit<E>>,
     early: Vec<Transmit<E>>,
     spent: Spent<E>,
+    spare: Vec<Vec<u8>>,
 }
 
 impl<E: Copy + Eq + Hash + Debug> Default for Driver<E> {
     fn default() -> Self {
-        Self { out: Vec::new(), early: Vec::new(), spent: Spent { buffers: Vec::new(), gone: Vec::new() } }
+        Self {
+            out: Vec::new(),
+            early: Vec::new(),
+            spent: Spent { buffers: Vec::new(), gone: Vec::new() },
+            spare: Vec::new(),
+        }
     }
 }
 
@@ -125,8 +135,13 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         self.give_back(c);
         io.receive(&mut Inbox { core: c, now, hex })?;
         if I::EARLY_ACKNACKS {
-            while let Some(t) = c.poll_acknack() {
-                self.early.push(t);
+            loop {
+                let mut data = self.spare.pop().unwrap_or_default();
+                let Some(to) = c.poll_acknack(&mut data) else {
+                    self.spare.push(data);
+                    break;
+                };
+                self.early.push(Transmit { to, data });
             }
             if !self.early.is_empty() {
                 dump_sent(hex, &self.early);
@@ -141,8 +156,13 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         if c.poll_timeout().is_some_and(|t| t <= now) {
             c.handle_timeout(now);
         }
-        while let Some(t) = c.poll_transmit(now) {
-            self.out.push(t);
+        loop {
+            let mut data = self.spare.pop().unwrap_or_default();
+            let Some(to) = c.poll_transmit(now, &mut data) else {
+                self.spare.push(data);
+                break;
+            };
+            self.out.push(Transmit { to, data });
         }
         let wait = block_for(c.poll_timeout(), now);
         dump_sent(hex, &self.out);
@@ -150,16 +170,19 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         Ok(wait)
     }
 
+    /// Takes back the buffers of the last turn (sent, dropped or left unsent) as spares, and tells the core
+    /// of the endpoints closed while sending.
     fn give_back(&mut self, core: &mut Core<E>) {
-        for data in self.spent.buffers.drain(..) {
-            core.recycle(data);
+        let unsent = self.out.drain(..).chain(self.early.drain(..)).map(|t| t.data);
+        for data in self.spent.buffers.drain(..).chain(unsent) {
+            if self.spare.len() < MAX_SPARE {
+                self.spare.push(data);
+            } else {
+                core.recycle(data);
+            }
         }
         for endpoint in self.spent.gone.drain(..) {
             core.forget_endpoint(endpoint);
-        }
-        // Whatever a shell left unsent.
-        for t in self.out.drain(..).chain(self.early.drain(..)) {
-            core.recycle(t.data);
         }
     }
 }

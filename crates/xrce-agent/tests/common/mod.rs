@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use xrce_agent::core::{AgentCore, CoreConfig};
+use xrce_agent::core::{AgentCore, CoreConfig, Transmit};
 use xrce_agent::middleware::ced::Ced;
 use xrce_agent::middleware::describe::FallbackProfiles;
 use xrce_proto::submessage::AckNack;
@@ -177,7 +177,8 @@ impl<M: xrce_agent::middleware::Middleware> Harness<M> {
 
     pub fn drain(&mut self) {
         let mut acks: Vec<(u16, Vec<u8>)> = Vec::new();
-        while let Some(t) = self.core.poll_transmit(self.now) {
+        let mut buf = Vec::new();
+        while let Some(t) = self.core.poll_transmit(self.now, &mut buf).map(|to| Transmit { to, data: buf.clone() }) {
             let port = t.to;
             let (header, _) = decode_owned(&t.data);
             if header.stream_id.is_reliable() {
