@@ -13,7 +13,9 @@
 //! Refusals answer STATUS_AGENT with `STATUS_ERR_DENIED` and log the peer. See `docs/security.md` for the
 //! threat model: nothing is encrypted, and an address is only as trustworthy as the network.
 
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::VecDeque;
+
+use foldhash::{HashMap, HashMapExt, HashSet, HashSetExt};
 use std::fmt::{self, Debug};
 use std::hash::Hash;
 use std::net::{IpAddr, SocketAddr};

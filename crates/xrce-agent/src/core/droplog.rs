@@ -2,7 +2,7 @@
 //! then at most one per [`DROP_LOG_INTERVAL`], which counts what was held back since; so a flood cannot
 //! fill the log (2,000 garbage datagrams gave 2,000 WARN lines before) and the counts still tell its size.
 
-use std::collections::HashMap;
+use foldhash::{HashMap, HashMapExt};
 use std::hash::Hash;
 use std::time::{Duration, Instant};
 

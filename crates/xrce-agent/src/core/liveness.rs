@@ -23,7 +23,7 @@
 //! One timer per client, at `last heard + T/2` while it talks: a turn every `T/2` at most, not every
 //! heartbeat period.
 
-use std::collections::HashMap;
+use foldhash::{HashMap, HashMapExt};
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};

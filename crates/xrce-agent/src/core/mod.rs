@@ -35,7 +35,9 @@ mod ghost_tests;
 mod tests;
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap, VecDeque};
+use std::collections::{BinaryHeap, VecDeque};
+
+use foldhash::{HashMap, HashMapExt};
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};

@@ -20,7 +20,9 @@
 //! Unlike eProsima's CED, entities described in XML or by a profile reference work: their names come from
 //! the [`ProfileSource`].
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
+
+use foldhash::{HashMap, HashMapExt};
 use std::sync::Arc;
 use std::time::Instant;
 

@@ -82,7 +82,9 @@
 //! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
 //!   keeps a 64-bit digest of it (std's `DefaultHasher`, fixed keys), not the description itself, to stay small.
 
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::VecDeque;
+
+use foldhash::{HashMap, HashMapExt, HashSet, HashSetExt};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
