@@ -89,6 +89,7 @@ impl UdpServer {
                 tx: SendBatch::new(),
                 // Datagrams may have been queued before the registration.
                 readable: true,
+                busy: false,
                 fetched: 0,
             })
         })?;
@@ -109,6 +110,10 @@ struct UdpIo<'a> {
     /// so skipping the read that would find the queue empty costs nothing (one system call per wake-up
     /// less); a turn woken by its timer alone reads anyway ([`Io::idle`]), in case.
     readable: bool,
+    /// The last read got datagrams: under load more have likely arrived during the turn, so the loop reads
+    /// again before waiting for readiness, which saves the `epoll_wait` per turn while datagrams keep coming
+    /// (a read that finds nothing ends it).
+    busy: bool,
     /// Datagrams in `rx` not yet handed to the core.
     fetched: usize,
 }
@@ -117,6 +122,7 @@ impl UdpIo<'_> {
     fn fetch(&mut self) -> io::Result<()> {
         self.fetched = self.rx.recv(self.socket)?;
         self.readable = self.fetched == BATCH;
+        self.busy = self.fetched > 0;
         Ok(())
     }
 }
@@ -133,7 +139,7 @@ impl Io<SocketAddr> for UdpIo<'_> {
     }
 
     fn prefetch(&mut self) -> io::Result<bool> {
-        if self.readable && self.fetched == 0 {
+        if (self.readable || self.busy) && self.fetched == 0 {
             self.fetch()?;
         }
         Ok(self.fetched > 0)
