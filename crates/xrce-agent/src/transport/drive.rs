@@ -5,8 +5,9 @@
 //! [`EventLoop`] waits for readiness, the core's next timer or the middleware's waker (a `mio::Waker` behind
 //! a [`WakeFlag`]), answers the `-d` discovery responder if the server has one, then [`Driver::drive`] runs one
 //! turn: take back the buffers sent last turn, hand the input to the core, send the ACKNACKs owed at once
-//! (UDP), run the library API's jobs, poll the middleware if it woke, run due timers, take every message to
-//! send (written by the core into the driver's spare buffers), send them. The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
+//! (UDP); if the shell already holds more input, end the turn there, a few times in a row at most
+//! ([`MAX_DEFERRED_SENDS`]); else run the library API's jobs, poll the middleware if it woke, run due timers,
+//! take every message to send (written by the core into the driver's spare buffers), send them. The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
 
 use std::fmt::Debug;
 use std::hash::Hash;
@@ -98,6 +99,15 @@ pub struct Spent<E> {
 /// Spare buffers a driver keeps for the core to write messages into; more go to the core's pool.
 const MAX_SPARE: usize = 256;
 
+/// Turns in a row that may take more input before building and sending what the input produced, while the
+/// shell already holds more ([`Io::prefetch`]). Under load this makes each send carry more: a best-effort
+/// message packs the samples of several reads, and the system calls per turn are shared by more samples. The
+/// core got cheap enough that a turn ran on a handful of datagrams, and its fixed `recvmmsg` + `sendmmsg`
+/// made the kernel's share grow. Idle, or when a read comes back empty, nothing waits. ACKNACKs still leave
+/// every turn. Against not deferring, alternating (4 rounds, medians): best effort 16 B 233k → 271k/s,
+/// reliable 16 B 186k → 202k/s, 1024 B 39.7k → 45.0k/s; 3 and 5 did as well, 8 lost at best effort.
+const MAX_DEFERRED_SENDS: u8 = 4;
+
 /// A shell's turn state: the messages of the turn, what comes back from sending them, and the buffers the
 /// core writes the next ones into.
 #[derive(Debug)]
@@ -106,6 +116,10 @@ pub struct Driver<E> {
     early: Vec<Transmit<E>>,
     spent: Spent<E>,
     spare: Vec<Vec<u8>>,
+    /// Turns since the last send that took input and deferred the rest ([`MAX_DEFERRED_SENDS`]).
+    deferred: u8,
+    /// The middleware's waker fired during a deferred turn.
+    woken: bool,
 }
 
 impl<E: Copy + Eq + Hash + Debug> Default for Driver<E> {
@@ -115,6 +129,8 @@ impl<E: Copy + Eq + Hash + Debug> Default for Driver<E> {
             early: Vec::new(),
             spent: Spent { buffers: Vec::new(), gone: Vec::new() },
             spare: Vec::new(),
+            deferred: 0,
+            woken: false,
         }
     }
 }
@@ -149,6 +165,14 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
                 self.give_back(c);
             }
         }
+        if self.deferred < MAX_DEFERRED_SENDS && io.prefetch()? {
+            // More input is here already: take it first, and send what both produced together.
+            self.deferred += 1;
+            self.woken |= woken;
+            return Ok(Duration::ZERO);
+        }
+        self.deferred = 0;
+        let woken = std::mem::take(&mut self.woken) | woken;
         run_jobs(c, jobs);
         if woken {
             c.poll_middleware(now);
@@ -352,5 +376,52 @@ fn answer_discovery(discovery: Option<&DiscoveryServer>) {
     if let Some(Err(e)) = discovery.map(DiscoveryServer::answer_queued) {
         // The agent keeps serving its clients.
         tracing::warn!(port = ?discovery.and_then(|d| d.local_addr().ok()), "discovery socket failed: {e}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::{AgentCore, CoreConfig};
+    use crate::middleware::ced::Ced;
+    use crate::middleware::describe::FallbackProfiles;
+
+    /// A shell that always has `more` reads of input waiting, and counts its sends.
+    struct Busy {
+        more: usize,
+        sends: usize,
+    }
+
+    impl Io<u16> for Busy {
+        fn ready(&mut self, _: &Event) {}
+        fn prefetch(&mut self) -> io::Result<bool> {
+            Ok(self.more > 0)
+        }
+        fn receive(&mut self, _: &mut Inbox<'_, u16>) -> io::Result<()> {
+            self.more = self.more.saturating_sub(1);
+            Ok(())
+        }
+        fn send(&mut self, out: &mut Vec<Transmit<u16>>, spent: &mut Spent<u16>) {
+            self.sends += 1;
+            spent.buffers.extend(out.drain(..).map(|t| t.data));
+        }
+    }
+
+    #[test]
+    fn sends_wait_for_input_already_here_a_bounded_number_of_turns() {
+        let mut core: Core<u16> = AgentCore::new(CoreConfig::default(), Box::new(Ced::new(Arc::new(FallbackProfiles))));
+        let (_tx, jobs) = std::sync::mpsc::channel();
+        let mut driver = Driver::default();
+        let turns = 3 * (usize::from(MAX_DEFERRED_SENDS) + 1);
+        let mut io = Busy { more: usize::MAX, sends: 0 };
+        for _ in 0..turns {
+            driver.drive(&mut core, &jobs, false, &mut io).unwrap();
+        }
+        assert_eq!(io.sends, 3, "one send per {} turns while input keeps coming", MAX_DEFERRED_SENDS + 1);
+        let mut io = Busy { more: 0, sends: 0 };
+        for _ in 0..4 {
+            driver.drive(&mut core, &jobs, false, &mut io).unwrap();
+        }
+        assert_eq!(io.sends, 4, "nothing waits when no input does");
     }
 }
