@@ -236,21 +236,38 @@ fn keyed_samples_from_the_xrce_client_are_distinct_instances_for_cyclone() {
 /// discovery with Cyclone sometimes outlasts the gate (1 run in ~10; docs/dds-engine.md, known limits).
 /// The writer keeps the last 10 samples, as micro-ROS' default QoS: with the DDS default (keep-last 1) a
 /// sample lost on the way may be replaced before the reader asks for it again (CI once lost 6, 7 and 8 of
-/// the burst so, as eProsima's agent could with the same QoS).
+/// the burst so, as eProsima's agent could with the same QoS). Even in the default participant Cyclone
+/// sometimes learns of the new writer after the burst (the known limit in docs/dds-engine.md: 3 runs in 32
+/// under two busy loops, 2 in 20 with a 2 s wait instead of 500 ms, so not discovery on our side), and its
+/// volatile reader then skips all of it: a whole loss is tried once more.
 #[test]
 #[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
 fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
-    const PORT: u16 = 18_904;
     const COUNT: u32 = 10;
-    let _agent = AgentProcess::start_with(PORT, &["--participant-names", "off"]);
-    let mut cyc = spawn(own_python("burst_reader.py", &["30", &COUNT.to_string()]));
+    // A burst lost whole is the known limit (docs/dds-engine.md): Cyclone learned of the writer after the burst
+    // was written. One more try then; a partial or reordered burst, or a second whole loss, fails.
+    let (confirmed, indices) = match burst_to_cyclone(18_904, COUNT) {
+        (confirmed, indices) if !indices.is_empty() => (confirmed, indices),
+        _ => {
+            println!("Cyclone received none of the burst (it learned of the writer late): trying once more");
+            burst_to_cyclone(18_907, COUNT)
+        }
+    };
+    assert!(confirmed, "the agent acknowledged the burst");
+    assert_eq!(indices, (1..=COUNT).collect::<Vec<_>>(), "every sample of the burst, in order");
+}
+
+/// One run of the burst test on `port`: whether the agent acknowledged the burst, and the indices Cyclone got.
+fn burst_to_cyclone(port: u16, count: u32) -> (bool, Vec<u32>) {
+    let _agent = AgentProcess::start_with(port, &["--participant-names", "off"]);
+    let mut cyc = spawn(own_python("burst_reader.py", &["30", &count.to_string()]));
     // The reader is running once Cyclone has discovered the agent's participant (Python may take seconds to
     // start on a loaded machine: a fixed sleep was not enough); the agent's side of that discovery meanwhile.
     let mut lines = std::io::BufReader::new(cyc.stdout.take().expect("stdout")).lines();
     let ready = lines.next().and_then(Result::ok).unwrap_or_default();
     assert_eq!(ready, "ready", "the Cyclone reader saw the agent's participant");
     std::thread::sleep(Duration::from_millis(500));
-    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &PORT.to_string()).expect("udp");
+    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
     let mut out_buf = [0u8; BUF * 2];
     let mut in_buf = [0u8; BUF];
     let mut session = Session::new(transport, 0xAAAA_CCCC);
@@ -275,7 +292,7 @@ fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
     let mut status = [0u8; 4];
     assert!(session.run_session_until_all_status(3000, &reqs, &mut status).expect("run"), "create: {status:?}");
     let t0 = Instant::now();
-    for i in 1..=COUNT {
+    for i in 1..=count {
         session.buffer_topic(out, dw, &hello_body(i, "first contact")).expect("write");
     }
     let confirmed = session.run_session_until_confirm_delivery(3000).expect("run");
@@ -287,8 +304,7 @@ fn burst_written_right_after_status_ok_reaches_a_running_cyclone_reader() {
     let indices: Vec<u32> =
         rest.iter().filter_map(|l| l.strip_prefix("received index=")?.trim().parse().ok()).collect();
     println!("burst confirmed={confirmed} in {held_ms:.1} ms; Cyclone received indices {indices:?}");
-    assert!(confirmed, "the agent acknowledged the burst");
-    assert_eq!(indices, (1..=COUNT).collect::<Vec<_>>(), "every sample of the burst, in order");
+    (confirmed, indices)
 }
 
 /// The names of the DDS participants Cyclone discovers while two XRCE participants exist: one created by
