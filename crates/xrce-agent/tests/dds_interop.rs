@@ -237,7 +237,7 @@ fn keyed_samples_from_the_xrce_client_are_distinct_instances_for_cyclone() {
 /// The writer keeps the last 10 samples, as micro-ROS' default QoS: with the DDS default (keep-last 1) a
 /// sample lost on the way may be replaced before the reader asks for it again (CI once lost 6, 7 and 8 of
 /// the burst so, as eProsima's agent could with the same QoS). Even in the default participant Cyclone
-/// sometimes learns of the new writer after the burst (the known limit in docs/dds-engine.md: 3 runs in 32
+/// sometimes learns of the new writer after the burst (the known limit in docs/dds-engine.md: 3 runs in 48
 /// under two busy loops, 2 in 20 with a 2 s wait instead of 500 ms, so not discovery on our side), and its
 /// volatile reader then skips all of it: a whole loss is tried once more.
 #[test]
