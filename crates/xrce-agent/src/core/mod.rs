@@ -347,21 +347,23 @@ where
             while let Some(key) = self.turns.pop(class) {
                 let Some(client) = self.clients.get_mut(&key) else { continue };
                 let mut ctx = endpoint_ctx!(self);
-                let built = match class {
-                    outbox::Class::Control => client.poll_control(&mut ctx, now, buf),
-                    outbox::Class::Stream => client.poll_stream(&mut ctx, now, buf),
-                };
-                let more = match class {
-                    outbox::Class::Control => client.outbox.has(class),
-                    outbox::Class::Stream => client.has_stream_work(),
+                let (built, more) = match class {
+                    outbox::Class::Control => {
+                        let built = client.poll_control(&mut ctx, now, buf);
+                        (built, client.outbox.has(class))
+                    }
+                    outbox::Class::Stream => {
+                        let built = client.poll_stream(&mut ctx, now, buf);
+                        // Building a reliable message armed its tail-loss probe.
+                        Self::queue_timer(&mut self.timers, key, client);
+                        (built, client.has_stream_work())
+                    }
                 };
                 if more {
                     self.turns.requeue(class, key);
                 } else {
                     client.outbox.set_listed(class, false);
                 }
-                // Building armed its tail-loss probe.
-                Self::queue_timer(&mut self.timers, key, client);
                 if let (true, Some(to)) = (built, client.endpoint) {
                     return Some(to);
                 }

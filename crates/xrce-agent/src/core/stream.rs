@@ -434,13 +434,14 @@ impl ReliableOut {
                 }
             }
         } else {
-            // Whole submessages, as many as fit `mtu` when packing.
+            // The first whole submessage, then as many more as fit `mtu` when packing.
+            let mut first = true;
             while let Some(next) = self.pending.front() {
                 let at = submessage_offset(buf.len());
-                let first_one = at == buf.len() && buf.len() == h.size();
-                if !first_one && (next.cut.is_some() || at + next.sub.len() > mtu) {
+                if !first && (next.cut.is_some() || at + next.sub.len() > mtu) {
                     break;
                 }
+                first = false;
                 let Some(next) = self.pending.pop_front() else { break };
                 self.pending_msgs = self.pending_msgs.saturating_sub(1);
                 self.pending_bytes = self.pending_bytes.saturating_sub(next.sub.len());
