@@ -12,6 +12,10 @@ fn main() {
     let header = Path::new(&include).join("fastdds/dds/domain/DomainParticipantFactory.hpp");
     println!("cargo:rerun-if-changed={}", header.display());
     if !header.exists() {
+        // Packages keep their files' old mtimes, so a header that appears later is not "changed" to cargo:
+        // watch the whole include directory (a recursive scan, only in this case), which a newly installed
+        // package's new directories make newer than this build.
+        println!("cargo:rerun-if-changed={include}");
         println!("cargo:warning=Fast DDS headers not found ({}): the fastdds engine is a stub; install libfastrtps-dev and g++ to build it", header.display());
         cc::Build::new().file("shim/stub.c").compile("xfast_shim");
         return;

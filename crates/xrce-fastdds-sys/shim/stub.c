@@ -1,5 +1,6 @@
 /* The shim's C ABI without Fast DDS: built when libfastrtps-dev is not installed, so that the workspace (and
- * `cargo test --all-features`) still builds. Every constructor fails; xf_available() tells the Rust side why. */
+ * `cargo test --all-features`) still builds. Every constructor fails; xf_available() tells the Rust side why.
+ * It must define every function src/ffi.rs declares: the test `stub_defines_every_shim_function` checks it. */
 #include <stddef.h>
 #include <stdint.h>
 
@@ -17,7 +18,9 @@ void xf_writer_delete(void *p, void *w) { (void)p; (void)w; }
 void xf_writer_guid(const void *w, void *out) { (void)w; (void)out; }
 int32_t xf_writer_matched(void *w) { (void)w; return 0; }
 int32_t xf_writer_unmatched_known(void *w, void *o) { (void)w; (void)o; return 0; }
+int32_t xf_writer_matched_prefix(void *w, const uint8_t *prefix) { (void)w; (void)prefix; return 0; }
 int32_t xf_participant_in_discovery(void *p, void *o) { (void)p; (void)o; return 0; }
+int32_t xf_participant_undiscovered(void *p, void *o) { (void)p; (void)o; return 0; }
 int xf_write(void *w, const uint8_t *b, size_t l, const void *r, void *o) {
     (void)w; (void)b; (void)l; (void)r; (void)o; return -1;
 }

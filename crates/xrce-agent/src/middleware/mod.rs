@@ -414,10 +414,9 @@ impl MiddlewareKind {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
             Self::Dds | Self::Rtps => {
-                let config = xrce_dds::BridgeConfig {
-                    engine: options.engine.unwrap_or_default(),
-                    ..xrce_dds::BridgeConfig::default()
-                };
+                let engine = options.engine.unwrap_or_default();
+                warn_if_fallback(engine, options.engine.is_some());
+                let config = xrce_dds::BridgeConfig { engine, ..xrce_dds::BridgeConfig::default() };
                 Ok(Box::new(
                     dds::Dds::with_config(profiles, config)
                         .with_ros_graph(ros_graph)
@@ -427,6 +426,21 @@ impl MiddlewareKind {
             }
         }
     }
+}
+
+/// Says, as the agent's first warning, that the DDS middleware runs the RustDDS fallback because this build
+/// has no Fast DDS, and how to get it: nobody should find out from lost first samples (docs/dds-engine.md).
+fn warn_if_fallback(engine: xrce_dds::Engine, chosen: bool) {
+    let env_chose = std::env::var_os(xrce_dds::ENGINE_ENV).is_some();
+    if engine != xrce_dds::Engine::RustDds || chosen || env_chose {
+        return;
+    }
+    tracing::warn!(
+        "DDS engine: RustDDS (the pure-Rust fallback), because this agent was built without Fast DDS (its headers \
+         were not found at build time); RustDDS meets ROS 2 nodes with 1-3 s stalls at first contact. Fix: install \
+         Fast DDS (`sudo apt-get install libfastrtps-dev g++`) and rebuild (`cargo build --release -p xrce-agent`); \
+         `--dds-engine rustdds` silences this"
+    );
 }
 
 /// Options of the DDS middleware that the command line sets (ours, not eProsima's).
