@@ -65,7 +65,9 @@ impl Bridge {
                 // already up discover us (and answer with their own SPDP) sooner.
                 announcements: (10, Duration::from_millis(50)),
             };
-            let participant = sys::Participant::new(&cfg).map_err(create_err("participant"))?;
+            let oracle = default.upgrade();
+            let participant =
+                create_heard(&cfg, oracle.as_ref().map(|o| &o.participant)).map_err(create_err("participant"))?;
             tracing::info!(domain = domain_id, name = %cfg.name, "DDS participant created (Fast DDS)");
             Ok::<_, DdsError>(Arc::new(ParticipantInner {
                 topics: TopicTable::default(),
@@ -84,6 +86,52 @@ impl Bridge {
 
     pub(crate) fn participant_count(&self) -> usize {
         self.participants.live()
+    }
+}
+
+/// Longest a new participant is given to discover the participants its domain's default participant knows
+/// (they answer its first announcement within 1–6 ms on loopback, with 1 to 11 peers) before it is taken
+/// for one that missed an answer ([`create_heard`]).
+const ANSWER_WAIT: Duration = Duration::from_millis(30);
+
+/// Participants created at most for one name by [`create_heard`]. Each attempt misses an answer with
+/// probability p (0.1 with the default participant and a ROS node beside it, 0.3 with 10 of the agent's
+/// participants alive: `discovery_race` example of xrce-fastdds-sys), so p⁵ ≤ 0.3 %.
+const CREATE_ATTEMPTS: u32 = 5;
+
+/// Creates a participant that has heard every participant `oracle` (the domain's default participant,
+/// running longer) knows, recreating it when it has not within [`ANSWER_WAIT`].
+///
+/// Why: Fast DDS sends a participant's first announcement before it registers the receivers of its sockets
+/// (`RTPSParticipantImpl::enable`, every version to 3.x; eProsima/Fast-DDS PR #6204). A peer answers a new
+/// participant once, with its own announcement, and on loopback that answer can arrive inside the window and
+/// be dropped; the new participant then learns of the peer only at the peer's next periodic announcement,
+/// 3 s later, and its writers match nobody meanwhile (docs/dds-engine.md). A recreated participant has a new
+/// GUID, so every peer answers it again. After [`CREATE_ATTEMPTS`] the last one is kept: the first-contact
+/// gate still holds its writers while its discovery is under way.
+fn create_heard(
+    cfg: &sys::ParticipantConfig,
+    oracle: Option<&sys::Participant>,
+) -> Result<sys::Participant, sys::Error> {
+    let mut attempt = 1;
+    loop {
+        let participant = sys::Participant::new(cfg)?;
+        let Some(oracle) = oracle else { return Ok(participant) };
+        let started = std::time::Instant::now();
+        let mut unheard = participant.undiscovered(oracle);
+        while unheard > 0 && started.elapsed() < ANSWER_WAIT {
+            std::thread::sleep(Duration::from_micros(500));
+            unheard = participant.undiscovered(oracle);
+        }
+        if unheard == 0 {
+            return Ok(participant);
+        }
+        if attempt == CREATE_ATTEMPTS {
+            tracing::info!(name = %cfg.name, unheard, attempts = attempt, "new DDS participant still misses answers to its first announcement; keeping it (its discovery completes at the peers' next periodic announcement)");
+            return Ok(participant);
+        }
+        tracing::debug!(name = %cfg.name, unheard, attempt, "new DDS participant missed answers to its first announcement; creating it again");
+        attempt += 1;
     }
 }
 

@@ -225,6 +225,16 @@ impl Participant {
         usize::try_from(unsafe { ffi::xf_participant_in_discovery(self.0 .0, oracle.0 .0) }).unwrap_or(0)
     }
 
+    /// Participants `oracle` (another participant of the process, which has run longer) has discovered, and
+    /// `oracle` itself, that this one has not discovered (0 on error, and when `oracle` is this one). Right
+    /// after creation, one that stays undiscovered answered this participant's first announcement before
+    /// Fast DDS listened for the answer (see `Participant::new`'s callers in xrce-dds).
+    pub fn undiscovered(&self, oracle: &Participant) -> usize {
+        // SAFETY: both participants are alive for the call (held by `self` and `oracle`); the shim locks
+        // their discovery tables one after the other.
+        usize::try_from(unsafe { ffi::xf_participant_undiscovered(self.0 .0, oracle.0 .0) }).unwrap_or(0)
+    }
+
     /// The participant's GUID.
     pub fn guid(&self) -> Guid {
         let mut g = Guid::default();
