@@ -190,18 +190,27 @@ struct Client {
 
 impl Client {
     fn micro_ros(plan: MicroRosPlan) -> Self {
-        Self::spawn(move |control, sink| ros_like::run_micro_ros(&plan, control, sink))
+        Self::spawn(Control::default(), move |control, sink| ros_like::run_micro_ros(&plan, control, sink))
+    }
+
+    /// A micro-ROS-like node that publishes from its STATUS OK on, as firmware does (no warm-up).
+    fn micro_ros_started(plan: MicroRosPlan) -> Self {
+        Self::spawn(Control::started(), move |control, sink| ros_like::run_micro_ros(&plan, control, sink))
     }
 
     fn px4(plan: Px4Plan) -> Self {
-        Self::spawn(move |control, sink| ros_like::run_px4(&plan, control, sink))
+        Self::spawn(Control::default(), move |control, sink| ros_like::run_px4(&plan, control, sink))
     }
 
-    fn spawn<F>(run: F) -> Self
+    fn px4_started(plan: Px4Plan) -> Self {
+        Self::spawn(Control::started(), move |control, sink| ros_like::run_px4(&plan, control, sink))
+    }
+
+    fn spawn<F>(control: Control, run: F) -> Self
     where
         F: FnOnce(&Control, &mut dyn FnMut(Event)) -> Result<(), Box<dyn std::error::Error>> + Send + 'static,
     {
-        let control = Arc::new(Control::default());
+        let control = Arc::new(control);
         let (tx, events) = channel();
         let c = control.clone();
         let thread = std::thread::spawn(move || {
@@ -315,8 +324,30 @@ fn written(events: &[Event]) -> Vec<(u64, u64)> {
 
 // ---- the tests ---------------------------------------------------------------------------------------------
 
-/// micro-ROS publisher → ROS subscriber, reliable: every sample written after the ROS node matched the writer
-/// arrives, and the time from the datawriter's STATUS OK to the first sample at the ROS node is printed.
+/// Whether the agent under test runs the RustDDS fallback (`XRCE_DDS_ENGINE=rustdds`), whose first contact with
+/// Fast DDS nodes is known to lose and delay (docs/dds-engine.md): there the first-contact checks are printed,
+/// not asserted, as [`check_first_contact`] does without `XRCE_ROS_STRICT`.
+fn on_rustdds() -> bool {
+    std::env::var("XRCE_DDS_ENGINE").is_ok_and(|v| v.trim().eq_ignore_ascii_case("rustdds"))
+}
+
+/// Asserts `ok` on the default engine; on RustDDS, as [`check_first_contact`].
+fn check_delivery(ok: bool, what: &str) {
+    if on_rustdds() {
+        check_first_contact(ok, what);
+    } else {
+        assert!(ok, "{what}");
+    }
+}
+
+/// Indices of `tag`'s samples in arrival order, from `(tag, index, wall)` triples.
+fn indices(samples: &[(String, u64, u64)], tag: &str) -> Vec<u64> {
+    samples.iter().filter(|s| s.0 == tag).map(|s| s.1).collect()
+}
+
+/// micro-ROS publisher → ROS subscriber, reliable, as firmware boots next to a running ROS node (issue 20):
+/// the node writes 20 samples at 10 Hz from its datawriter's STATUS OK on, each publish waiting for the
+/// agent's acknowledgement as `rmw_publish` does; every one reaches the ROS node, in order, none twice.
 #[test]
 #[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
 fn micro_ros_publisher_reaches_ros_subscriber() {
@@ -326,49 +357,351 @@ fn micro_ros_publisher_reaches_ros_subscriber() {
     let mut ros = RosPeer::start("ros_listener", &["sub", "--topic", "xrce_chatter", "--timeout", "30"]);
     assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
     let mut plan = micro_ros(PORT, 0x0001_0001, "uros_talker");
-    // A firmware publishing at 50 Hz from the moment its writer exists; the counted samples start once the
-    // ROS node reports the match.
-    plan.publish = Some(PubPlan { topic: "xrce_chatter".into(), count: COUNT, period_ms: 20, max_warmup: 500 });
-    let mut client = Client::micro_ros(plan);
+    plan.publish = Some(PubPlan { topic: "xrce_chatter".into(), count: COUNT, period_ms: 100, max_warmup: 0 });
+    let mut client = Client::micro_ros_started(plan);
     let status_ok = client.created("datawriter", Duration::from_secs(5)).map(|e| e.wall_ns);
-    let matched = ros.wait_for("matched", Duration::from_secs(10)).map(|v| wall(&v));
-    client.control.go.store(true, Ordering::Relaxed);
-    let events = client.finish(Duration::from_secs(20));
-    let writes = written(&events);
-    let last_index = writes.last().map(|w| w.0);
-    ros.gather_until(Duration::from_secs(3), |seen| {
-        last_index.is_some_and(|l| ros_samples(seen).iter().any(|s| s.1 == l))
-    });
+    let events = client.finish(Duration::from_secs(30));
+    ros.gather_until(Duration::from_secs(3), |seen| ros_samples(seen).len() >= COUNT as usize);
+    let matched = ros.seen.iter().find(|v| v["event"] == "matched").map(wall);
     let lines = ros.stop();
     let got = ros_samples(&lines);
-    let (arrived, expected, missing) = after_match(&writes, &got, matched.unwrap_or(u64::MAX));
-    let first = got.first().map(|s| s.2);
-    let lost_before_first = got.first().map_or(writes.len() as u64, |s| s.1);
-    let first_contact = status_ok.zip(first).map(|(a, b)| ms_between(a, b));
+    let order = indices(&got, "m");
+    let dropped = events.iter().filter(|e| e.name == "dropped").count();
+    let unconfirmed = events.iter().filter(|e| e.name == "written" && e.b("confirmed") == Some(false)).count();
+    let first_contact = status_ok.zip(got.first().map(|s| s.2)).map(|(a, b)| ms_between(a, b));
     let to_match = status_ok.zip(matched).map(|(a, b)| ms_between(a, b));
-    let pass = status_ok.is_some() && matched.is_some() && expected > 0 && missing.is_empty();
+    let all_in_order = order == (0..COUNT).collect::<Vec<_>>();
+    let pass = status_ok.is_some() && all_in_order && dropped == 0;
     println!(
         "ROS2-SUMMARY xrce_to_ros_reliable status_ok_to_first_sample_ms={} status_ok_to_ros_matched_ms={} \
-         after_match={arrived}/{expected} written={} received={} lost_before_first={lost_before_first} pass={pass}",
+         received={}/{COUNT} in_order={all_in_order} dropped_at_client={dropped} unconfirmed={unconfirmed} pass={pass}",
         fmt_ms(first_contact),
         fmt_ms(to_match),
-        writes.len(),
-        got.len()
+        order.len(),
     );
     assert!(status_ok.is_some(), "the datawriter was created");
-    assert!(matched.is_some(), "the ROS node matched the XRCE writer");
-    assert!(expected >= COUNT as usize, "{expected} samples written after the match");
-    // Functional: once samples flow, none is lost.
-    let first_index = got.iter().map(|s| s.1).min().unwrap_or(u64::MAX);
-    let received: BTreeSet<u64> = got.iter().map(|s| s.1).collect();
-    let lost_after_first: Vec<u64> =
-        writes.iter().map(|w| w.0).filter(|i| *i > first_index && !received.contains(i)).collect();
-    assert!(!got.is_empty(), "the ROS node received samples");
-    assert!(lost_after_first.is_empty(), "samples lost after the first one arrived: {lost_after_first:?}");
-    check_first_contact(
-        missing.is_empty(),
-        &format!("samples written after the ROS node matched and lost: {missing:?}"),
+    check_delivery(all_in_order, &format!("every sample written from STATUS OK on, in order, once: got {order:?}"));
+    check_delivery(dropped == 0, &format!("{dropped} writes dropped by the client (its stream stayed full)"));
+}
+
+/// Creates a micro-ROS-like node `node` with a reliable volatile writer on `rt/<topic>` (binary, as
+/// rmw_microxrcedds), writes one sample and waits up to 10 s for the agent to acknowledge it: whether it did,
+/// and after how many ms (how long the first-contact gate held it).
+fn first_write_held_ms(port: u16, key: u32, node: &str, topic: &str) -> (bool, f64) {
+    use xrce_client::prelude::*;
+    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
+    let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
+    let mut session = Session::new(transport, key);
+    session.create_session().expect("session");
+    let out = session.create_output_reliable_stream(&mut out_buf, 4).expect("out stream");
+    session.create_input_reliable_stream(&mut in_buf, 4).expect("in stream");
+    let qos = QoS {
+        reliability: Reliability::Reliable,
+        durability: Durability::Volatile,
+        history: History::KeepLast,
+        depth: 10,
+    };
+    let (p, t, publ, dw) = (
+        object_id(1, ObjectKind::Participant),
+        object_id(1, ObjectKind::Topic),
+        object_id(1, ObjectKind::Publisher),
+        object_id(1, ObjectKind::DataWriter),
     );
+    let mode = REUSE | REPLACE;
+    let type_name = ros_like::msg_type("std_msgs", "String");
+    let reqs = [
+        session.buffer_create_participant_bin(out, p, 0, Some(node), mode).expect("participant"),
+        session.buffer_create_topic_bin(out, t, p, &format!("rt/{topic}"), &type_name, mode).expect("topic"),
+        session.buffer_create_publisher_bin(out, publ, p, mode).expect("publisher"),
+        session.buffer_create_datawriter_bin(out, dw, publ, t, qos, mode).expect("datawriter"),
+    ];
+    let mut status = [0u8; 4];
+    assert!(session.run_session_until_all_status(5000, &reqs, &mut status).expect("run"), "create: {status:?}");
+    let t0 = Instant::now();
+    session.buffer_topic(out, dw, &ros_like::string_msg("m 0 0")).expect("write");
+    let confirmed = session.run_session_until_confirm_delivery(10_000).expect("run");
+    let held = t0.elapsed().as_secs_f64() * 1e3;
+    let _ = session.delete_session();
+    (confirmed, held)
+}
+
+/// The first-contact gate's short bound: a running ROS node's reader that the XRCE writer can never match (it
+/// requests a deadline no XRCE writer offers, which the gate's QoS check does not see) holds the first write
+/// only the gate's short bound (500 ms) once the writer's participant has the reader's endpoints, not the
+/// 3.5 s kept for discovery under way.
+#[test]
+#[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
+fn gate_lets_go_of_a_known_reader_that_cannot_match() {
+    const PORT: u16 = 18_939;
+    let _agent = start_agent(PORT);
+    let mut ros = RosPeer::start(
+        "ros_deadline_listener",
+        &["sub", "--topic", "gate_incompatible", "--deadline-ms", "100", "--timeout", "30"],
+    );
+    assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
+    // The agent's default participant learns of the reader meanwhile.
+    std::thread::sleep(Duration::from_secs(1));
+    let (confirmed, held) = first_write_held_ms(PORT, 0x0005_0001, "uros_gate_incompatible", "gate_incompatible");
+    let matched = ros.wait_for("matched", Duration::from_millis(200)).is_some();
+    let _ = ros.stop();
+    println!(
+        "ROS2-SUMMARY gate_incompatible_reader confirmed={confirmed} held_ms={held:.1} matched={matched} pass={}",
+        confirmed && held < 2000.0 && !matched
+    );
+    assert!(!matched, "the reader requesting a deadline did not match the XRCE writer");
+    assert!(confirmed, "the agent acknowledged the write");
+    assert!(held < 2000.0, "held {held:.0} ms: the short bound (500 ms) applies to a reader that cannot match");
+}
+
+/// The first-contact gate's long bound: a ROS node killed without a goodbye is still known to the agent's
+/// default participant (until its lease runs out), so a new node's writer waits for a discovery that never
+/// completes; the gate lets the write go at its discovery limit (3.5 s), not later.
+#[test]
+#[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
+fn gate_stops_waiting_for_a_reader_gone_without_a_goodbye() {
+    const PORT: u16 = 18_940;
+    let _agent = start_agent(PORT);
+    let mut ros = RosPeer::start("ros_doomed_listener", &["sub", "--topic", "gate_gone", "--timeout", "30"]);
+    assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
+    std::thread::sleep(Duration::from_secs(1));
+    // SIGKILL: no DATA(p)[UD], the agent's default participant keeps the node's reader until its lease ends.
+    let _ = ros.stop();
+    let (confirmed, held) = first_write_held_ms(PORT, 0x0005_0002, "uros_gate_gone", "gate_gone");
+    let long = xrce_agent::middleware::dds::FIRST_CONTACT_DISCOVERY_LIMIT.as_secs_f64() * 1e3;
+    let pass = confirmed && held < long + 3000.0;
+    println!("ROS2-SUMMARY gate_reader_gone confirmed={confirmed} held_ms={held:.1} pass={pass}");
+    assert!(confirmed, "the agent acknowledged the write");
+    assert!(held < long + 3000.0, "held {held:.0} ms: the gate must let go at its discovery limit ({long} ms)");
+    if !on_rustdds() {
+        assert!(held > long - 1000.0, "held {held:.0} ms: while the reader's participant was awaited, writes wait");
+    }
+}
+
+/// What one node of a boot storm is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StormNode {
+    /// micro-ROS publisher writing [`STORM_SAMPLES`] at 10 Hz from STATUS OK on.
+    Publisher,
+    /// micro-ROS node with a subscription (ROS publishes to it) and a SetBool service (ROS calls it).
+    SubscriberReplier,
+    /// PX4-like client: best-effort `fmu/out` samples from STATUS OK on and a replier.
+    Px4,
+}
+
+const STORM_SAMPLES: u64 = 20;
+const STORM_CALLS: usize = 3;
+const STORM_PX4_SAMPLES: u64 = 100;
+
+/// N nodes starting together next to a running ROS node, as a robot boots: the last is PX4-like, the others
+/// alternate publisher and subscriber+replier.
+fn storm_nodes(n: usize) -> Vec<StormNode> {
+    (0..n)
+        .map(|i| match i {
+            i if i + 1 == n => StormNode::Px4,
+            i if i % 2 == 0 => StormNode::Publisher,
+            _ => StormNode::SubscriberReplier,
+        })
+        .collect()
+}
+
+/// The boot storm of issue 20: `n` micro-ROS-like and PX4-like clients connect at once while a rclpy node runs;
+/// every reliable sample each publisher writes from its STATUS OK on reaches ROS in order, every ROS sample
+/// reaches each subscriber, every ROS call to each replier is answered correctly, and ≥ 95 % of PX4's best
+/// effort arrives.
+fn boot_storm(n: usize, port: u16, key_base: u32) {
+    let _agent = start_agent(port);
+    let nodes = storm_nodes(n);
+    let topic = |kind: &str, i: usize| format!("storm{n}_{kind}{i}");
+    let px4_topic = format!("storm{n}_px4");
+    let px4_service = format!("storm{n}_cmd");
+    let mut args: Vec<String> = vec!["multi".into()];
+    for (i, node) in nodes.iter().enumerate() {
+        match node {
+            StormNode::Publisher => args.extend(["--sub".into(), topic("pub", i)]),
+            StormNode::SubscriberReplier => {
+                args.extend(["--pub".into(), topic("sub", i), "--call".into(), topic("srv", i)]);
+            }
+            StormNode::Px4 => {
+                args.extend(["--sub-be".into(), format!("/fmu/out/{px4_topic}")]);
+                args.extend(["--call".into(), format!("/fmu/{px4_service}")]);
+            }
+        }
+    }
+    args.extend(
+        ["--count", "20", "--expect", "20", "--period-ms", "50", "--calls", "3", "--timeout", "40", "--tag", "ros"]
+            .map(String::from),
+    );
+    let arg_refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    let mut ros = RosPeer::start(&format!("ros_storm{n}"), &arg_refs);
+    assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
+    let started = Instant::now();
+    let mut clients: Vec<(StormNode, Client)> = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &node)| {
+            let key = key_base + i as u32;
+            let client = match node {
+                StormNode::Publisher => {
+                    let mut plan = micro_ros(port, key, &format!("storm{n}_node{i}"));
+                    plan.publish =
+                        Some(PubPlan { topic: topic("pub", i), count: STORM_SAMPLES, period_ms: 100, max_warmup: 0 });
+                    Client::micro_ros_started(plan)
+                }
+                StormNode::SubscriberReplier => {
+                    let mut plan = micro_ros(port, key, &format!("storm{n}_node{i}"));
+                    plan.subscribe = Some(topic("sub", i));
+                    plan.serve = Some(topic("srv", i));
+                    plan.run_for = Duration::from_secs(40);
+                    Client::micro_ros_started(plan)
+                }
+                StormNode::Px4 => Client::px4_started(Px4Plan {
+                    agent: "127.0.0.1".into(),
+                    port,
+                    key,
+                    domain: 0,
+                    publish: Some(PubPlan {
+                        topic: px4_topic.clone(),
+                        count: STORM_PX4_SAMPLES,
+                        period_ms: 20,
+                        max_warmup: 0,
+                    }),
+                    subscribe: None,
+                    serve: Some(px4_service.clone()),
+                    run_for: Duration::from_secs(40),
+                }),
+            };
+            (node, client)
+        })
+        .collect();
+    let status_ok: Vec<Option<u64>> = clients
+        .iter_mut()
+        .map(|(node, c)| {
+            let entity = match node {
+                StormNode::Publisher | StormNode::Px4 => "datawriter",
+                StormNode::SubscriberReplier => "replier",
+            };
+            c.created(entity, Duration::from_secs(10)).map(|e| e.wall_ns)
+        })
+        .collect();
+    let ros_done = ros.wait_for("done", Duration::from_secs(45)).is_some();
+    let lines = ros.stop();
+    let mut all_events = Vec::new();
+    for (node, client) in clients.drain(..) {
+        all_events.push((node, client.finish(Duration::from_secs(if node == StormNode::Publisher { 10 } else { 0 }))));
+    }
+    let took_s = started.elapsed().as_secs_f64();
+
+    let samples_on = |t: &str| -> Vec<(String, u64, u64)> {
+        lines
+            .iter()
+            .filter(|v| v["event"] == "sample" && v["topic"].as_str().is_some_and(|x| x.trim_start_matches('/') == t))
+            .filter_map(|v| {
+                let (tag, i, _) = ros_like::parse_stamped(v["data"].as_str()?)?;
+                Some((tag, i, wall(v)))
+            })
+            .collect()
+    };
+    let replies_ok = |service: &str| {
+        lines
+            .iter()
+            .filter(|v| {
+                v["event"] == "reply" && v["service"].as_str().is_some_and(|x| x.trim_start_matches('/') == service)
+            })
+            .filter(|v| {
+                let req = v["request"].as_bool().unwrap_or(false);
+                v["success"].as_bool() == Some(req)
+                    && v["message"].as_str().is_some_and(|m| m.starts_with(&format!("xrce {req} ")))
+            })
+            .count()
+    };
+    let (mut pubs_ok, mut pubs, mut subs_ok, mut subs, mut services_ok, mut services) = (0, 0, 0, 0, 0, 0);
+    let mut first_ms = Vec::new();
+    let mut failures = Vec::new();
+    let mut px4_pct = f64::NAN;
+    for (i, ((node, events), ok_at)) in all_events.iter().zip(&status_ok).enumerate() {
+        match node {
+            StormNode::Publisher => {
+                pubs += 1;
+                let got = samples_on(&topic("pub", i));
+                let order = indices(&got, "m");
+                let dropped = events.iter().filter(|e| e.name == "dropped").count();
+                if let Some(ms) = ok_at.zip(got.first().map(|s| s.2)).map(|(a, b)| ms_between(a, b)) {
+                    first_ms.push(ms);
+                }
+                if order == (0..STORM_SAMPLES).collect::<Vec<_>>() && dropped == 0 {
+                    pubs_ok += 1;
+                } else {
+                    failures.push(format!("publisher {i}: received {order:?}, {dropped} dropped at the client"));
+                }
+            }
+            StormNode::SubscriberReplier => {
+                subs += 1;
+                services += 1;
+                let got: BTreeSet<u64> = events
+                    .iter()
+                    .filter(|e| e.name == "sample" && e.s("tag") == Some("ros"))
+                    .filter_map(|e| e.u("i"))
+                    .collect();
+                if got.len() == STORM_SAMPLES as usize {
+                    subs_ok += 1;
+                } else {
+                    failures.push(format!("subscriber {i}: {} of {STORM_SAMPLES} ROS samples", got.len()));
+                }
+                let ok = replies_ok(&topic("srv", i));
+                if ok == STORM_CALLS {
+                    services_ok += 1;
+                } else {
+                    failures.push(format!("replier {i}: {ok} of {STORM_CALLS} ROS calls answered correctly"));
+                }
+            }
+            StormNode::Px4 => {
+                services += 1;
+                let written = events.iter().filter(|e| e.name == "written").count();
+                let got = samples_on(&format!("fmu/out/{px4_topic}")).len();
+                px4_pct = if written == 0 { 0.0 } else { 100.0 * got as f64 / written as f64 };
+                if px4_pct < MIN_BEST_EFFORT_DELIVERY * 100.0 {
+                    failures.push(format!("PX4 best effort: {got} of {written}"));
+                }
+                let ok = replies_ok(&format!("fmu/{px4_service}"));
+                if ok == STORM_CALLS {
+                    services_ok += 1;
+                } else {
+                    failures.push(format!("PX4 replier: {ok} of {STORM_CALLS} ROS calls answered correctly"));
+                }
+            }
+        }
+    }
+    first_ms.sort_by(f64::total_cmp);
+    let created = status_ok.iter().filter(|s| s.is_some()).count();
+    let pass = failures.is_empty() && created == n;
+    println!(
+        "ROS2-SUMMARY boot_storm_{n} created={created}/{n} publishers_ok={pubs_ok}/{pubs} subscribers_ok={subs_ok}/{subs} \
+         services_ok={services_ok}/{services} px4_pct={px4_pct:.1} status_ok_to_first_sample_ms_min={} \
+         status_ok_to_first_sample_ms_median={} status_ok_to_first_sample_ms_max={} ros_done={ros_done} took_s={took_s:.1} \
+         pass={pass}",
+        fmt_ms(first_ms.first().copied()),
+        fmt_ms(first_ms.get(first_ms.len() / 2).copied()),
+        fmt_ms(first_ms.last().copied()),
+    );
+    for f in &failures {
+        println!("boot storm {n}: {f}");
+    }
+    assert_eq!(created, n, "every node created its entities");
+    check_delivery(failures.is_empty(), &format!("boot storm of {n}: {failures:?}"));
+}
+
+/// The boot storm with 3 nodes: a publisher, a subscriber+replier and a PX4-like client.
+#[test]
+#[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
+fn boot_storm_of_3_nodes() {
+    boot_storm(3, 18_937, 0x0003_0000);
+}
+
+/// The boot storm with 10 nodes: 5 publishers, 4 subscribers+repliers and a PX4-like client.
+#[test]
+#[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
+fn boot_storm_of_10_nodes() {
+    boot_storm(10, 18_938, 0x0004_0000);
 }
 
 /// ROS publisher → micro-ROS subscriber, reliable: every sample arrives, the worst latency from publish is

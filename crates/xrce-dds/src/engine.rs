@@ -371,6 +371,18 @@ impl RawWriter {
         each!(self, w => w.unmatched_known_readers())
     }
 
+    /// Of the [`RawWriter::unmatched_known_readers`], those whose participant is still in discovery with the
+    /// writer's participant (not discovered by it yet, or no endpoint of it yet): the writer may still match
+    /// them, while a reader whose participant's endpoints have arrived and that is unmatched never will (a
+    /// QoS or partition the check does not see). Always 0 on RustDDS.
+    pub fn unmatched_readers_in_discovery(&self) -> usize {
+        match self {
+            Self::Rust(_) => 0,
+            #[cfg(feature = "fastdds")]
+            Self::Fast(w) => w.unmatched_readers_in_discovery(),
+        }
+    }
+
     /// Remote participants whose discovery with the writer's participant is still under way (it has no
     /// endpoint of them yet, or has not discovered them while the domain's default participant has): it may
     /// be about to learn of readers. Only a participant created for a new name (Fast DDS) has any for long;

@@ -94,6 +94,10 @@ impl Bridge {
 /// for one that missed an answer ([`create_heard`]).
 const ANSWER_WAIT: Duration = Duration::from_millis(30);
 
+/// When a new participant that has not heard every participant of the agent yet asks them to announce again
+/// ([`create_heard`]); answers come within 1–6 ms.
+const REANNOUNCE_AFTER: Duration = Duration::from_millis(8);
+
 /// Participants created at most for one name by [`create_heard`]. Each attempt misses an answer with
 /// probability p (0.1 with the default participant and a ROS node beside it, 0.3 with 10 of the agent's
 /// participants alive: `discovery_race` example of xrce-fastdds-sys), so p⁵ ≤ 0.3 %.
@@ -107,8 +111,10 @@ const CREATE_ATTEMPTS: u32 = 5;
 /// participant once, with its own announcement, and on loopback that answer can arrive inside the window and
 /// be dropped; the new participant then learns of the peer only at the peer's next periodic announcement,
 /// 3 s later, and its writers match nobody meanwhile (docs/dds-engine.md). A recreated participant has a new
-/// GUID, so every peer answers it again. After [`CREATE_ATTEMPTS`] the last one is kept: the first-contact
-/// gate still holds its writers while its discovery is under way.
+/// GUID, so every peer answers it again; but first the agent's own participants, whose answers come first
+/// and are the ones most often dropped, are asked to announce again ([`REANNOUNCE_AFTER`]). After
+/// [`CREATE_ATTEMPTS`] the last one is kept: the first-contact gate still holds its writers while its
+/// discovery is under way.
 fn create_heard(
     cfg: &sys::ParticipantConfig,
     oracle: Option<&sys::Participant>,
@@ -119,9 +125,16 @@ fn create_heard(
         let Some(oracle) = oracle else { return Ok(participant) };
         let started = std::time::Instant::now();
         let mut unheard = participant.undiscovered(oracle);
+        let mut reannounced = false;
         while unheard > 0 && started.elapsed() < ANSWER_WAIT {
             std::thread::sleep(Duration::from_micros(500));
             unheard = participant.undiscovered(oracle);
+            // The agent's own participants answer first, so theirs are the answers most often dropped; they
+            // can be asked again, remote ones cannot.
+            if unheard > 0 && !reannounced && started.elapsed() >= REANNOUNCE_AFTER {
+                reannounced = true;
+                participant.reannounce_unheard();
+            }
         }
         if unheard == 0 {
             return Ok(participant);
@@ -350,6 +363,10 @@ impl RawWriter {
 
     pub(crate) fn unmatched_known_readers(&self) -> usize {
         self.writer.unmatched_known(&self.oracle().participant)
+    }
+
+    pub(crate) fn unmatched_readers_in_discovery(&self) -> usize {
+        self.writer.unmatched_in_discovery(&self.oracle().participant)
     }
 
     pub(crate) fn matched_readers(&self) -> usize {

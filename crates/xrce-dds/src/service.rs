@@ -138,6 +138,12 @@ impl Requester {
     pub fn unmatched_known_repliers(&self) -> usize {
         self.writer.unmatched_known_readers()
     }
+
+    /// Of those, the ones whose participant is still in discovery with the requester's participant; see
+    /// [`RawWriter::unmatched_readers_in_discovery`].
+    pub fn repliers_in_discovery(&self) -> usize {
+        self.writer.unmatched_readers_in_discovery()
+    }
 }
 
 /// A replier: receives requests with their identity, writes replies related to them.
@@ -173,6 +179,12 @@ impl Replier {
     /// A reply written before its requester's reader matched is lost: the reader is volatile.
     pub fn unmatched_known_requesters(&self) -> usize {
         self.writer.unmatched_known_readers() + self.writer.participant_in_discovery()
+    }
+
+    /// Requesters' reply readers already discovered and not matched yet whose participant is still in
+    /// discovery with the replier's participant; see [`RawWriter::unmatched_readers_in_discovery`].
+    pub fn requesters_in_discovery(&self) -> usize {
+        self.writer.unmatched_readers_in_discovery()
     }
 
     /// QoS of the reply writer for a replier described with `qos`.

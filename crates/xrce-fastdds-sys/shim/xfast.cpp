@@ -245,7 +245,13 @@ template <class Q> void apply_common(Q& q, const xf_qos& x) {
 
 }  // namespace
 
-struct xf_participant { DomainParticipant* p; Discovery discovery; };
+struct xf_participant { DomainParticipant* p; Discovery discovery; uint32_t reannounced = 0; };
+
+namespace {
+// The process's participants, for xf_participant_reannounce_unheard. A participant leaves it before deletion.
+std::mutex registry_m;
+std::set<xf_participant*> registry;
+}  // namespace
 struct xf_writer { DataWriter* w; Publisher* pub; MatchListener listener; xf_participant* owner; };
 struct xf_reader { DataReader* r; Subscriber* sub; CbListener listener; RawData scratch; };
 
@@ -273,6 +279,10 @@ xf_participant* xf_participant_new(const xf_participant_cfg* c) {
     h->p = DomainParticipantFactory::get_instance()->create_participant(c->domain, q, &h->discovery,
                                                                        StatusMask::none());
     if (!h->p) { delete h; return nullptr; }
+    {
+        std::lock_guard<std::mutex> g(registry_m);
+        registry.insert(h);
+    }
     return h;
     XF_CATCH(nullptr)
 }
@@ -280,6 +290,10 @@ xf_participant* xf_participant_new(const xf_participant_cfg* c) {
 void xf_participant_delete(xf_participant* p) {
     if (!p) return;
     try {
+        {
+            std::lock_guard<std::mutex> g(registry_m);
+            registry.erase(p);
+        }
         p->p->delete_contained_entities();
         DomainParticipantFactory::get_instance()->delete_participant(p->p);
     } catch (...) {}
@@ -382,6 +396,44 @@ int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
     XF_CATCH(-2)
 }
 
+// Of the readers xf_writer_unmatched_known counts, those whose participant the writer's own participant has
+// not discovered yet or has no endpoint of yet: discovery with them is under way, so the writer may still
+// match them (a reader whose participant's endpoints did arrive and that is still unmatched will not match).
+int32_t xf_writer_unmatched_in_discovery(xf_writer* w, xf_participant* oracle) {
+    XF_TRY
+    std::set<GUID_t> matched;
+    {
+        std::lock_guard<std::mutex> g(w->listener.m);
+        matched = w->listener.matched;
+    }
+    const std::string topic = w->w->get_topic()->get_name();
+    const std::string type = w->w->get_topic()->get_type_name();
+    const DataWriterQos q = w->w->get_qos();
+    const bool reliable = q.reliability().kind == RELIABLE_RELIABILITY_QOS;
+    const bool transient_local = q.durability().kind != VOLATILE_DURABILITY_QOS;
+    const auto own = w->w->guid().guidPrefix;
+    std::vector<GuidPrefix_t> candidates;
+    {
+        std::lock_guard<std::mutex> g(oracle->discovery.m);
+        for (const auto& kv : oracle->discovery.readers) {
+            const GUID_t& guid = kv.first;
+            const KnownReader& r = kv.second;
+            if (r.topic != topic || r.type != type) continue;
+            if ((r.reliable && !reliable) || (r.transient_local && !transient_local)) continue;
+            if (guid.guidPrefix == own || matched.count(guid) != 0) continue;
+            candidates.push_back(guid.guidPrefix);
+        }
+    }
+    xf_participant* mine = w->owner;
+    std::lock_guard<std::mutex> g(mine->discovery.m);
+    int32_t n = 0;
+    for (const auto& prefix : candidates) {
+        if (mine->discovery.discovered.count(prefix) == 0 || mine->discovery.awaiting_endpoints.count(prefix) != 0) ++n;
+    }
+    return n;
+    XF_CATCH(-2)
+}
+
 // Remote participants whose discovery with `p` is still under way, so that `p` may be about to learn of
 // readers a new writer should not miss: those `p` has discovered but has no endpoint of yet, and those
 // `oracle` (a participant that has run longer) knows and `p` has not discovered yet.
@@ -415,10 +467,45 @@ int32_t xf_participant_undiscovered(xf_participant* p, xf_participant* oracle) {
     }
     wanted.insert(oracle->p->guid().guidPrefix);
     wanted.erase(p->p->guid().guidPrefix);
+    // This process's participants count only while they live: one just deleted (a participant created again
+    // by the agent) may still be in the oracle's table, and will never be discovered.
+    std::set<GuidPrefix_t> alive;
+    {
+        std::lock_guard<std::mutex> g(registry_m);
+        for (xf_participant* x : registry) alive.insert(x->p->guid().guidPrefix);
+    }
+    const auto& own = p->p->guid().guidPrefix;
     std::lock_guard<std::mutex> g(p->discovery.m);
     int32_t n = 0;
     for (const auto& prefix : wanted) {
+        const bool same_process = std::memcmp(prefix.value, own.value, 8) == 0;
+        if (same_process && alive.count(prefix) == 0) continue;
         if (p->discovery.discovered.count(prefix) == 0) ++n;
+    }
+    return n;
+    XF_CATCH(-2)
+}
+
+// Makes every other participant of this process in p's domain that p has not discovered announce itself again,
+// by changing its USER_DATA (Fast DDS sends a participant's DATA(p) to every peer when it changes): their
+// answers to p's first announcement may have been dropped (see xf_participant_undiscovered). USER_DATA then
+// reads "xrce-rs-announce=N;", which ROS 2 ignores (it reads only "enclave="). How many were asked (< 0: error).
+int32_t xf_participant_reannounce_unheard(xf_participant* p) {
+    XF_TRY
+    std::set<GuidPrefix_t> heard;
+    {
+        std::lock_guard<std::mutex> g(p->discovery.m);
+        heard = p->discovery.discovered;
+    }
+    const auto domain = p->p->get_domain_id();
+    int32_t n = 0;
+    std::lock_guard<std::mutex> g(registry_m);
+    for (xf_participant* x : registry) {
+        if (x == p || x->p->get_domain_id() != domain || heard.count(x->p->guid().guidPrefix) != 0) continue;
+        DomainParticipantQos q = x->p->get_qos();
+        const std::string tag = "xrce-rs-announce=" + std::to_string(++x->reannounced) + ";";
+        q.user_data().data_vec(std::vector<eprosima::fastrtps::rtps::octet>(tag.begin(), tag.end()));
+        if (x->p->set_qos(q) == ReturnCode_t::RETCODE_OK) ++n;
     }
     return n;
     XF_CATCH(-2)

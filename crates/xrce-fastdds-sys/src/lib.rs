@@ -235,6 +235,15 @@ impl Participant {
         usize::try_from(unsafe { ffi::xf_participant_undiscovered(self.0 .0, oracle.0 .0) }).unwrap_or(0)
     }
 
+    /// Asks every other participant of this process in its domain that this one has not discovered to announce
+    /// itself again (their answers to this one's first announcement may have been dropped); how many were asked.
+    /// They announce by changing their USER_DATA to `xrce-rs-announce=N;` (ROS 2 reads only `enclave=`).
+    pub fn reannounce_unheard(&self) -> usize {
+        // SAFETY: live participant; the shim walks its registry of live participants under a lock that their
+        // deletion also takes.
+        usize::try_from(unsafe { ffi::xf_participant_reannounce_unheard(self.0 .0) }).unwrap_or(0)
+    }
+
     /// The participant's GUID.
     pub fn guid(&self) -> Guid {
         let mut g = Guid::default();
@@ -342,6 +351,16 @@ impl Writer {
         // SAFETY: live writer; `oracle` keeps its participant alive for the call; the shim locks the
         // participant's discovery table and the writer's matched set.
         let n = unsafe { ffi::xf_writer_unmatched_known(self.w, oracle.0 .0) };
+        usize::try_from(n).unwrap_or(0)
+    }
+
+    /// Of the readers [`Writer::unmatched_known`] counts, those whose participant this writer's participant
+    /// has not discovered, or has no endpoint of, yet (0 on error): discovery with them is under way, so the
+    /// writer may still match them; a reader whose participant's endpoints did arrive will not.
+    pub fn unmatched_in_discovery(&self, oracle: &Participant) -> usize {
+        // SAFETY: live writer, whose participant `self.p` keeps alive; `oracle` keeps its participant alive for
+        // the call; the shim locks the matched set and the two discovery tables one after the other.
+        let n = unsafe { ffi::xf_writer_unmatched_in_discovery(self.w, oracle.0 .0) };
         usize::try_from(n).unwrap_or(0)
     }
 

@@ -39,10 +39,13 @@ impl AgentProcess {
 
     fn start_bin_with(bin: &Path, port: u16, extra: &[&str]) -> Self {
         require_loopback_namespace();
+        // `XRCE_AGENT_LOG=FILE` keeps the agent's log (appended; `RUST_LOG` sets its level).
+        let log = std::env::var_os("XRCE_AGENT_LOG")
+            .and_then(|f| std::fs::OpenOptions::new().create(true).append(true).open(f).ok());
         let child = Command::new(bin)
             .args(["udp4", "-p", &port.to_string(), "-v", "3"])
             .args(extra)
-            .stdout(Stdio::null())
+            .stdout(log.map_or_else(Stdio::null, Stdio::from))
             .spawn()
             .expect("agent starts");
         std::thread::sleep(Duration::from_millis(300));

@@ -10,6 +10,7 @@ Modes (run `ros_peer.py MODE --help`):
   serve  serve a std_srvs/srv/SetBool service (success = data, message = "ros <data> <count>")
   call   wait for a SetBool service, call it N times, time each round trip
   graph  poll get_node_names_and_namespaces()/get_topic_names_and_types() until the expected nodes appear
+  multi  several subscriptions, publishers and service clients at once (a boot storm's ROS side)
 
 Needs a ROS 2 Jazzy environment (the suite uses a venv: LD_LIBRARY_PATH=$VENV/lib AMENT_PREFIX_PATH=$VENV
 RMW_IMPLEMENTATION=rmw_fastrtps_cpp FASTDDS_BUILTIN_TRANSPORTS=UDPv4) and must run inside a loopback-only
@@ -22,6 +23,7 @@ import sys
 import time
 
 import rclpy
+from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Int32, String
@@ -35,12 +37,16 @@ def emit(event, **fields):
 
 
 def qos(args):
-    return QoSProfile(
+    profile = QoSProfile(
         reliability=ReliabilityPolicy.BEST_EFFORT if args.best_effort else ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if args.transient_local else DurabilityPolicy.VOLATILE,
         history=HistoryPolicy.KEEP_LAST,
         depth=args.depth,
     )
+    if getattr(args, "deadline_ms", 0) > 0:
+        # A deadline no XRCE writer offers: the reader never matches one (the agent's gate must not wait forever).
+        profile.deadline = Duration(nanoseconds=int(args.deadline_ms * 1e6))
+    return profile
 
 
 MSG_TYPES = {"string": String, "int32": Int32}
@@ -155,6 +161,95 @@ def run_call(node, args):
     emit("done", calls=args.count, ok=ok)
 
 
+def run_multi(node, args):
+    """Several endpoints in one node, for a boot storm: subscriptions (reliable with --sub, best effort with
+    --sub-be), publishers that publish --count samples "<tag> <i> <wall_ns>" every --period-ms once a
+    subscription matched (--pub), and SetBool clients that call --calls times once the service is available
+    (--call). Every event names its topic or service; stops when everything is done or at --timeout."""
+    received = {}
+
+    def on_sample_for(topic):
+        def on_sample(msg):
+            received[topic] = received.get(topic, 0) + 1
+            emit("sample", topic=topic, data=msg.data, n=received[topic])
+
+        return on_sample
+
+    def on_matched_for(topic):
+        def on_matched(info):
+            emit("matched", topic=topic, count=info.current_count, change=info.current_count_change)
+
+        return on_matched
+
+    for topic, best_effort in [(t, False) for t in args.sub] + [(t, True) for t in args.sub_be]:
+        profile = QoSProfile(
+            reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.VOLATILE,
+            history=HistoryPolicy.KEEP_LAST,
+            depth=args.depth,
+        )
+        node.create_subscription(
+            String,
+            topic,
+            on_sample_for(topic),
+            profile,
+            event_callbacks=SubscriptionEventCallbacks(matched=on_matched_for(topic)),
+        )
+    reliable = QoSProfile(
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=args.depth,
+    )
+    publishers = [{"topic": t, "pub": node.create_publisher(String, t, reliable), "sent": 0, "next": 0.0}
+                  for t in args.pub]
+    clients = [{"service": s, "client": node.create_client(SetBool, s), "t0": time.monotonic(), "calls": 0,
+                "pending": None, "available": False} for s in args.call]
+    emit("ready", node=node.get_name())
+    deadline = time.monotonic() + args.timeout
+
+    def finished():
+        return (all(p["sent"] >= args.count for p in publishers)
+                and all(c["calls"] >= args.calls and c["pending"] is None for c in clients)
+                and all(received.get(t, 0) >= args.expect for t in args.sub))
+
+    while rclpy.ok() and time.monotonic() < deadline and not finished():
+        now = time.monotonic()
+        for p in publishers:
+            if p["sent"] < args.count and p["pub"].get_subscription_count() >= 1 and now >= p["next"]:
+                msg = String()
+                t = time.time_ns()
+                msg.data = f"{args.tag} {p['sent']} {t}"
+                p["pub"].publish(msg)
+                emit("sent", topic=p["topic"], i=p["sent"], t=t)
+                p["sent"] += 1
+                p["next"] = now + args.period_ms / 1000.0
+        for c in clients:
+            if c["pending"] is not None:
+                future, start, data, i = c["pending"]
+                if future.done():
+                    reply = future.result()
+                    emit("reply", service=c["service"], i=i, request=data, rtt_ms=(now - start) * 1e3,
+                         success=reply.success, message=reply.message)
+                    c["pending"] = None
+                elif now - start > args.call_timeout:
+                    c["client"].remove_pending_request(future)
+                    emit("timeout", service=c["service"], i=i)
+                    c["pending"] = None
+            elif c["calls"] < args.calls and c["client"].service_is_ready():
+                if not c["available"]:
+                    c["available"] = True
+                    emit("available", service=c["service"], after_ms=(now - c["t0"]) * 1e3)
+                request = SetBool.Request()
+                request.data = c["calls"] % 2 == 0
+                c["pending"] = (c["client"].call_async(request), now, request.data, c["calls"])
+                c["calls"] += 1
+        rclpy.spin_once(node, timeout_sec=0.005)
+    # Let reliable repairs and the last replies complete.
+    spin_until(node, lambda: False, args.linger)
+    emit("done", received=received)
+
+
 def run_graph(node, args):
     expect = set(args.expect)
     t0 = time.monotonic()
@@ -183,6 +278,7 @@ def main():
         p.add_argument("--best-effort", action="store_true", help="best effort instead of reliable")
         p.add_argument("--transient-local", action="store_true", help="transient local instead of volatile")
         p.add_argument("--depth", type=int, default=10)
+        p.add_argument("--deadline-ms", type=float, default=0.0, help="requested deadline (0: none)")
 
     p = sub.add_parser("sub", help="subscribe and print samples")
     topic_args(p)
@@ -210,6 +306,21 @@ def main():
     p.add_argument("--timeout", type=float, default=30.0, help="how long to wait for the service")
     p.add_argument("--call-timeout", type=float, default=5.0)
 
+    p = sub.add_parser("multi", help="several subscriptions, publishers and service clients in one node")
+    p.add_argument("--sub", action="append", default=[], help="reliable subscription (repeatable)")
+    p.add_argument("--sub-be", action="append", default=[], help="best-effort subscription (repeatable)")
+    p.add_argument("--pub", action="append", default=[], help="publisher (repeatable)")
+    p.add_argument("--call", action="append", default=[], help="SetBool service to call (repeatable)")
+    p.add_argument("--depth", type=int, default=10)
+    p.add_argument("--count", type=int, default=20, help="samples per publisher")
+    p.add_argument("--expect", type=int, default=0, help="run until each --sub topic got this many samples")
+    p.add_argument("--period-ms", type=float, default=20.0)
+    p.add_argument("--tag", default="ros")
+    p.add_argument("--calls", type=int, default=3, help="calls per service")
+    p.add_argument("--call-timeout", type=float, default=5.0)
+    p.add_argument("--timeout", type=float, default=30.0)
+    p.add_argument("--linger", type=float, default=1.0)
+
     p = sub.add_parser("graph", help="print the ROS graph")
     p.add_argument("--expect", action="append", default=[], help="node name to wait for (repeatable)")
     p.add_argument("--timeout", type=float, default=10.0)
@@ -218,7 +329,8 @@ def main():
     rclpy.init()
     node = rclpy.create_node(args.node)
     try:
-        {"sub": run_sub, "pub": run_pub, "serve": run_serve, "call": run_call, "graph": run_graph}[args.mode](
+        {"sub": run_sub, "pub": run_pub, "serve": run_serve, "call": run_call, "graph": run_graph,
+         "multi": run_multi}[args.mode](
             node, args
         )
     except KeyboardInterrupt:

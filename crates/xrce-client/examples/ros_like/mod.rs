@@ -248,18 +248,37 @@ fn create(
     }
 }
 
-/// Writes one sample, running the session while the reliable history is full.
-fn write(session: &mut Udp<'_, '_>, stream: StreamId, writer: ObjectId, data: &[u8]) -> Result<(), Error> {
-    for _ in 0..200 {
-        match session.buffer_topic(stream, writer, data) {
-            Ok(_) => return Ok(()),
-            Err(Error::WouldBlock) => {
-                session.run_session_time(10)?;
+/// How long micro-ROS waits for a reliable write to be acknowledged (`RMW_UXRCE_PUBLISH_RELIABLE_TIMEOUT`).
+const CONFIRM_MS: i32 = 1000;
+
+/// How a write went, as `rmw_publish` of micro-ROS reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Written {
+    /// In the stream and acknowledged by the agent within [`CONFIRM_MS`].
+    Confirmed,
+    /// In the stream, not acknowledged in time (`rmw_publish` returns an error; the sample stays queued).
+    Unconfirmed,
+    /// Not written: the reliable history stayed full (`rmw_publish` returns an error; the sample is lost).
+    Dropped,
+}
+
+/// Writes one sample as `rmw_publish` does on a reliable stream: into the stream, waiting up to [`CONFIRM_MS`]
+/// for room when the history is full (its fragmented-write fallback flushes and waits so), then up to
+/// [`CONFIRM_MS`] for the agent to acknowledge everything written (`uxr_run_session_until_confirm_delivery`).
+fn write(session: &mut Udp<'_, '_>, stream: StreamId, writer: ObjectId, data: &[u8]) -> Result<Written, Error> {
+    match session.buffer_topic(stream, writer, data) {
+        Ok(_) => {}
+        Err(Error::WouldBlock) => {
+            session.run_session_until_confirm_delivery(CONFIRM_MS)?;
+            match session.buffer_topic(stream, writer, data) {
+                Ok(_) => {}
+                Err(Error::WouldBlock) => return Ok(Written::Dropped),
+                Err(e) => return Err(e),
             }
-            Err(e) => return Err(e),
         }
+        Err(e) => return Err(e),
     }
-    Err(Error::WouldBlock)
+    Ok(if session.run_session_until_confirm_delivery(CONFIRM_MS)? { Written::Confirmed } else { Written::Unconfirmed })
 }
 
 /// A periodic publisher of stamped `std_msgs/String` samples: `warm-up` samples (tag `w`) while `go` is not
@@ -296,7 +315,8 @@ pub struct MicroRosPlan {
     pub run_for: Duration,
 }
 
-const HISTORY: usize = 8;
+/// micro-ROS' defaults: `RMW_UXRCE_STREAM_HISTORY` 4 slots of the UDP transport's 512-byte MTU per stream.
+const HISTORY: usize = 4;
 const BUF: usize = 512 * HISTORY;
 
 fn ros_topic(name: &str) -> String {
@@ -473,9 +493,14 @@ impl Publishing {
         }
         let tag = if go { "m" } else { "w" };
         let t = wall_ns();
-        write(session, stream, self.writer, &string_msg(&format!("{tag} {} {t}", self.index)))?;
+        let outcome = write(session, stream, self.writer, &string_msg(&format!("{tag} {} {t}", self.index)))?;
+        let name = if outcome == Written::Dropped { "dropped" } else { "written" };
         (session.callbacks().sink)(
-            Event::new("written").with("tag", Val::S(tag.into())).with("i", Val::U(self.index)).with("t", Val::U(t)),
+            Event::new(name)
+                .with("tag", Val::S(tag.into()))
+                .with("i", Val::U(self.index))
+                .with("t", Val::U(t))
+                .with("confirmed", Val::B(outcome == Written::Confirmed)),
         );
         self.index += 1;
         if go {
@@ -552,7 +577,10 @@ impl Calling {
         }
         let value = self.sent.is_multiple_of(2);
         let id = session.buffer_request(stream, self.requester, &set_bool_request(value))?;
-        self.pending = Some((id, value, Instant::now()));
+        let at = Instant::now();
+        // As rmw_send_request: the request is confirmed before the call returns.
+        session.run_session_until_confirm_delivery(CONFIRM_MS)?;
+        self.pending = Some((id, value, at));
         (session.callbacks().sink)(
             Event::new("call").with("call", Val::U(u64::from(self.sent))).with("request", Val::B(value)),
         );

@@ -139,6 +139,15 @@ pub const TAKE_BATCH: usize = 64;
 /// out. After it, writes go through as before the gate existed.
 pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(500);
 
+/// Longest a new datawriter, requester or replier holds its first writes while a reader it has not matched,
+/// known on its topic, belongs to a participant still in discovery with the writer's own (not discovered yet,
+/// or no endpoint of it yet): the writer will match that reader once discovery ends, so writing earlier would
+/// skip it. Discovery normally ends in 100–300 ms; when one of its messages is lost it resumes at the peer's
+/// next periodic announcement, 3 s apart by default in Fast DDS (ROS 2 keeps it). 3.5 s covers that once,
+/// and stays below what a micro-ROS publisher holds in its reliable stream (4 slots, 1 s confirmation wait
+/// per publish). A peer gone without saying so (its lease not run out) is waited for this long, no longer.
+pub const FIRST_CONTACT_DISCOVERY_LIMIT: Duration = Duration::from_millis(3500);
+
 /// The same bound for a new requester, which also holds its first request while no replier has matched at
 /// all: a request written then is lost for certain (volatile), and applications call a service right after
 /// creating its client, while discovery with the server may still be under way (a Fast DDS 2.14 node and
@@ -262,6 +271,35 @@ impl Node {
     }
 }
 
+/// A first-contact gate: when it was set, and its bound while no known reader's participant is in discovery.
+#[derive(Debug, Clone, Copy)]
+struct Gate {
+    created: Instant,
+    short: Duration,
+}
+
+/// What a gate still waits for.
+#[derive(Debug, Clone, Copy, Default)]
+struct GateWait {
+    /// Known readers not matched yet whose participant is in discovery with the writer's.
+    readers_in_discovery: usize,
+    /// Known readers not matched yet (those above included) and participants in discovery.
+    unmatched: usize,
+}
+
+impl Gate {
+    /// Until when writes wait for `wait`; `None`: nothing to wait for.
+    fn hold_until(self, wait: GateWait) -> Option<Instant> {
+        if wait.readers_in_discovery > 0 {
+            Some(self.created + FIRST_CONTACT_DISCOVERY_LIMIT.max(self.short))
+        } else if wait.unmatched > 0 {
+            Some(self.created + self.short)
+        } else {
+            None
+        }
+    }
+}
+
 /// The DDS middleware. See the module documentation.
 pub struct Dds {
     profiles: Arc<dyn ProfileSource>,
@@ -275,8 +313,8 @@ pub struct Dds {
     pinned: HashSet<EntityRef>,
     /// The ROS 2 graph (`ros_discovery_info`), unless turned off.
     graph: Option<RosGraph>,
-    /// Datawriters and requesters still at their first-contact gate, with its deadline.
-    gates: HashMap<EntityRef, Instant>,
+    /// Datawriters, requesters and repliers still at their first-contact gate.
+    gates: HashMap<EntityRef, Gate>,
     /// Best-effort samples written to a datawriter at its gate, replayed once it opens.
     held: HashMap<EntityRef, HeldSamples>,
     /// Repliers holding a reply until its requester's reply reader is matched: since when.
@@ -472,23 +510,35 @@ impl Dds {
 
     /// Whether `entity` (a datawriter, requester or replier) may write as far as its first-contact gate goes;
     /// opens (forgets) the gate once its DDS writer matched every reader known on its topic, or at its
-    /// deadline.
+    /// deadline: [`FIRST_CONTACT_DISCOVERY_LIMIT`] while a known reader's participant is still in discovery
+    /// with the writer's, the gate's own (short) one otherwise.
     fn gate_open(&mut self, entity: EntityRef, now: Instant) -> bool {
-        let Some(&deadline) = self.gates.get(&entity) else { return true };
-        let unmatched = match self.entities.get(&entity).map(|n| &n.handle) {
-            Some(Handle::Writer(w)) => w.writer.unmatched_known_readers() + w.writer.participant_in_discovery(),
-            Some(Handle::Requester(r)) => r.unmatched_known_repliers() + usize::from(r.matched_repliers() == 0),
-            Some(Handle::Replier(r)) => r.unmatched_known_requesters(),
-            _ => 0,
+        let Some(&gate) = self.gates.get(&entity) else { return true };
+        let wait = match self.entities.get(&entity).map(|n| &n.handle) {
+            Some(Handle::Writer(w)) => GateWait {
+                readers_in_discovery: w.writer.unmatched_readers_in_discovery(),
+                unmatched: w.writer.unmatched_known_readers() + w.writer.participant_in_discovery(),
+            },
+            Some(Handle::Requester(r)) => GateWait {
+                readers_in_discovery: r.repliers_in_discovery(),
+                unmatched: r.unmatched_known_repliers() + usize::from(r.matched_repliers() == 0),
+            },
+            Some(Handle::Replier(r)) => GateWait {
+                readers_in_discovery: r.requesters_in_discovery(),
+                unmatched: r.unmatched_known_requesters(),
+            },
+            _ => GateWait::default(),
         };
-        if unmatched > 0 && now < deadline {
-            self.gate_timer.arm(deadline, self.waker.as_ref());
+        if let Some(until) = gate.hold_until(wait).filter(|until| now < *until) {
+            self.gate_timer.arm(until, self.waker.as_ref());
             return false;
         }
-        if unmatched > 0 {
+        if wait.unmatched > 0 {
             tracing::info!(
                 ?entity,
-                unmatched,
+                unmatched = wait.unmatched,
+                readers_in_discovery = wait.readers_in_discovery,
+                held_ms = now.saturating_duration_since(gate.created).as_millis(),
                 "first-contact gate timed out; writing before every known reader matched"
             );
         } else {
@@ -753,9 +803,9 @@ impl Middleware for Dds {
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
         if matches!(node.handle, Handle::Writer(_) | Handle::Replier(_)) {
-            self.gates.insert(creation.entity, creation.now + FIRST_CONTACT_GATE);
+            self.gates.insert(creation.entity, Gate { created: creation.now, short: FIRST_CONTACT_GATE });
         } else if matches!(node.handle, Handle::Requester(_)) {
-            self.gates.insert(creation.entity, creation.now + FIRST_CONTACT_GATE_REQUESTER);
+            self.gates.insert(creation.entity, Gate { created: creation.now, short: FIRST_CONTACT_GATE_REQUESTER });
         } else {
             self.gates.remove(&creation.entity);
         }
@@ -967,6 +1017,22 @@ mod tests {
     use super::*;
     use xrce_dds::{Durability, History, Reliability};
     use xrce_proto::object::{EndpointQos as BinaryQos, QosFlags};
+
+    #[test]
+    fn gate_holds_long_only_while_a_known_readers_participant_is_in_discovery() {
+        let created = Instant::now();
+        let gate = Gate { created, short: FIRST_CONTACT_GATE };
+        assert_eq!(gate.hold_until(GateWait::default()), None, "nothing to wait for: open");
+        // A known reader unmatched although its participant's endpoints arrived (it will not match), or a
+        // participant in discovery without a known reader: the short bound.
+        let unmatched = GateWait { readers_in_discovery: 0, unmatched: 2 };
+        assert_eq!(gate.hold_until(unmatched), Some(created + FIRST_CONTACT_GATE));
+        // A known reader whose participant is still in discovery: up to the discovery limit.
+        let discovering = GateWait { readers_in_discovery: 1, unmatched: 2 };
+        assert_eq!(gate.hold_until(discovering), Some(created + FIRST_CONTACT_DISCOVERY_LIMIT));
+        assert!(FIRST_CONTACT_DISCOVERY_LIMIT > Duration::from_secs(3), "covers Fast DDS' 3 s announcement period");
+        assert!(FIRST_CONTACT_DISCOVERY_LIMIT < Duration::from_secs(4), "below 4 micro-ROS publishes of 1 s each");
+    }
 
     #[test]
     fn binary_qos_bits_map_to_dds_qos() {
