@@ -6,7 +6,7 @@
 #   XRCE_ROS_VENV   the ROS 2 venv (default: target/ros2-venv, made by .ci/ros2-venv.sh)
 #   AGENT=release   measure the release agent (built here) instead of the tests' debug binary
 #   XRCE_ROS_AGENT  any other agent binary with the same command line (eProsima's MicroXRCEAgent, say)
-# The raw output of every run is kept in target/ros2-runs/run-K.log.
+# The raw output of every run is kept in target/ros2-runs/run-K.log, the agent's log in agent-K.log.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-10}
@@ -30,9 +30,13 @@ mkdir -p "$out"
 ns=xros-rep-$$
 trap 'ip netns del "$ns" 2>/dev/null || true' EXIT
 echo "agent: ${XRCE_ROS_AGENT:-debug build (CARGO_BIN_EXE)}; $runs runs"
+# The agent's log of each run (first-contact gate, participants created again) is kept beside it.
+export RUST_LOG=${RUST_LOG:-xrce_agent=info,xrce_dds=debug}
 for k in $(seq 1 "$runs"); do
   ip netns del "$ns" 2>/dev/null || true
-  "$netns" "$ns" "$exe" --ignored --test-threads 1 --nocapture $filter >"$out/run-$k.log" 2>&1 || true
+  rm -f "$out/agent-$k.log"
+  XRCE_AGENT_LOG=$PWD/$out/agent-$k.log \
+    "$netns" "$ns" "$exe" --ignored --test-threads 1 --nocapture $filter >"$out/run-$k.log" 2>&1 || true
   grep -h '^ROS2-SUMMARY' "$out/run-$k.log" | sed "s/^ROS2-SUMMARY /run=$k /"
 done > "$out/summary.txt"
 # One table per test: a column per key, a row per run.

@@ -631,7 +631,10 @@ fn boot_storm(n: usize, port: u16, key_base: u32) {
                 if order == (0..STORM_SAMPLES).collect::<Vec<_>>() && dropped == 0 {
                     pubs_ok += 1;
                 } else {
-                    failures.push(format!("publisher {i}: received {order:?}, {dropped} dropped at the client"));
+                    // When each arrived, from the datawriter's STATUS OK (ms), to tell a late match from a loss.
+                    let at: Vec<String> =
+                        got.iter().map(|s| format!("{}@{}", s.1, fmt_ms(ok_at.map(|a| ms_between(a, s.2))))).collect();
+                    failures.push(format!("publisher {i}: received {at:?}, {dropped} dropped at the client"));
                 }
             }
             StormNode::SubscriberReplier => {

@@ -61,7 +61,8 @@
 //!   after STATUS OK were lost at readers (a ROS node) that had matched the writer first. Each new
 //!   datawriter and requester is therefore *gated*: [`Middleware::write_credit`] is 0 while its DDS writer
 //!   has not matched every remote reader of its topic that the participant has discovered with a
-//!   compatible QoS, for [`FIRST_CONTACT_GATE`] at most; the core keeps the client's reliable message and
+//!   compatible QoS, for [`FIRST_CONTACT_GATE`] at most, or [`FIRST_CONTACT_DISCOVERY_LIMIT`] while such a
+//!   reader's participant is still in discovery with the writer's; the core keeps the client's reliable message and
 //!   retries it when a small timer thread wakes it ([`GATE_RECHECK`], only while a write is held). Readers
 //!   not discovered yet are the ordinary late joiners and are not waited for. Whether the *remote* reader
 //!   has matched our writer is not observable (an unmatched reader sends nothing) and need not be: once
@@ -76,7 +77,9 @@
 //!   those the default participant has discovered, and the gate also waits while the writer's participant
 //!   is still in discovery with a remote participant: one it has discovered without any endpoint yet (a ROS
 //!   node started with the client is not known to the default participant either), or one the default
-//!   participant knows and it has not discovered yet (its first milliseconds). Best-effort writes (PX4) are not held by the
+//!   participant knows and it has not discovered yet (its first milliseconds; a participant that missed a
+//!   peer's answer to its first announcement is created again by the bridge, docs/dds-engine.md, issue 20).
+//!   Best-effort writes (PX4) are not held by the
 //!   core: the middleware keeps them at the gate ([`HELD_AT_GATE`]) and replays them once it opens, at
 //!   twice the rate they were written (a burst would overflow a keep-last reader's history).
 //! * **REUSE** compares the full description (names, types, key kind, QoS, parent), not only names: a node
@@ -130,13 +133,14 @@ pub const IN_FLIGHT_STALL: std::time::Duration = std::time::Duration::from_milli
 /// Samples moved at once from a reader's bridge queue to the middleware's local buffer.
 pub const TAKE_BATCH: usize = 64;
 
-/// Longest a new datawriter or requester holds its first writes until its DDS writer has matched the
-/// remote readers already discovered on its topic (see the module documentation). Matching a known reader
-/// takes RustDDS 20–35 ms, and a Fast DDS participant created for a new name 100–330 ms (measured with a
-/// ROS 2 node, 10 runs); 500 ms runs out only when a known reader will never match (an incompatibility our
-/// check does not see, a reader gone meanwhile, a status event the engine dropped), and it stays below
-/// the 1 s micro-ROS waits by default for a reliable publish to be confirmed, so a held client never times
-/// out. After it, writes go through as before the gate existed.
+/// Longest a new datawriter or replier holds its first writes until its DDS writer has matched the remote
+/// readers already discovered on its topic (see the module documentation), once no such reader's participant
+/// is in discovery with the writer's any more ([`FIRST_CONTACT_DISCOVERY_LIMIT`] applies until then).
+/// Matching a known reader takes RustDDS 20–35 ms, and a Fast DDS writer matches the readers of a
+/// participant as soon as its endpoints arrive; so 500 ms runs out only when a known reader will never match
+/// (an incompatibility our check does not see, such as a deadline or a partition; a status event the engine
+/// dropped), and it stays below the 1 s micro-ROS waits by default for a reliable publish to be confirmed.
+/// After it, writes go through as before the gate existed.
 pub const FIRST_CONTACT_GATE: Duration = Duration::from_millis(500);
 
 /// Longest a new datawriter, requester or replier holds its first writes while a reader it has not matched,
@@ -271,11 +275,32 @@ impl Node {
     }
 }
 
-/// A first-contact gate: when it was set, and its bound while no known reader's participant is in discovery.
+/// A first-contact gate: when it was set, its bound while no known reader's participant is in discovery,
+/// and, once the writer matched the known readers, how many more writes may go before every matched reader
+/// has acknowledged one ([`AckWatch`]).
 #[derive(Debug, Clone, Copy)]
 struct Gate {
     created: Instant,
     short: Duration,
+    /// For a reliable keep-last datawriter: its depth until the writer matched the known readers, then the
+    /// watch of their first acknowledgements.
+    acks: Acks,
+}
+
+/// The second half of a reliable keep-last datawriter's gate. Our writer matching a remote reader does not
+/// mean the reader has matched our writer: until it has (its endpoint discovery may still lose a message),
+/// the writer keeps its samples for it, but only its last `depth`; a reader that matches after more writes
+/// than that misses the first ones (seen in 1 of 30 boot storms of 10 nodes: samples 0–2 lost, the ROS reader
+/// matched about 1.3 s late). So at most `depth` writes go until every matched reader has acknowledged
+/// (which it does only once it has matched the writer), for [`FIRST_CONTACT_DISCOVERY_LIMIT`] at most.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Acks {
+    /// Not watched (best effort, keep-all, requesters, repliers, RustDDS).
+    Unwatched,
+    /// Still matching the known readers; then up to `depth` writes before the acknowledgements.
+    Pending { depth: usize },
+    /// Matched: `left` more writes may go before every matched reader has acknowledged, watched since `since`.
+    Watching { since: Instant, left: usize },
 }
 
 /// What a gate still waits for.
@@ -457,6 +482,9 @@ impl Dds {
         let WriterState { writer: w, written, .. } = &mut **state;
         match w.write(data) {
             Ok(id) => {
+                if let Some(Gate { acks: Acks::Watching { left, .. }, .. }) = self.gates.get_mut(&writer) {
+                    *left = left.saturating_sub(1);
+                }
                 let seq = id.sequence_number;
                 match written {
                     Some(wr) => wr.last_seq = wr.last_seq.max(seq),
@@ -514,6 +542,9 @@ impl Dds {
     /// with the writer's, the gate's own (short) one otherwise.
     fn gate_open(&mut self, entity: EntityRef, now: Instant) -> bool {
         let Some(&gate) = self.gates.get(&entity) else { return true };
+        if let Acks::Watching { since, left } = gate.acks {
+            return self.acks_open(entity, gate, since, left, now);
+        }
         let wait = match self.entities.get(&entity).map(|n| &n.handle) {
             Some(Handle::Writer(w)) => GateWait {
                 readers_in_discovery: w.writer.unmatched_readers_in_discovery(),
@@ -545,11 +576,62 @@ impl Dds {
             // How long the writes were held: 0 when the writer had matched every known reader already.
             tracing::debug!(?entity, "first-contact gate open: every known reader matched");
         }
+        if let Acks::Pending { depth } = gate.acks {
+            if let Some(g) = self.gates.get_mut(&entity) {
+                g.acks = Acks::Watching { since: now, left: depth };
+                return true;
+            }
+        }
+        self.close_gate(entity);
+        true
+    }
+
+    /// The second half of a datawriter's gate ([`Acks`]): open while writes are left or once every matched
+    /// reader has acknowledged; at the deadline, open anyway.
+    fn acks_open(&mut self, entity: EntityRef, gate: Gate, since: Instant, left: usize, now: Instant) -> bool {
+        let acked = match self.entities.get(&entity).map(|n| &n.handle) {
+            Some(Handle::Writer(w)) => w.writer.wait_for_acknowledgments(Duration::ZERO).unwrap_or(true),
+            _ => true,
+        };
+        if acked {
+            tracing::debug!(?entity, "first-contact gate open: every matched reader acknowledged");
+            self.close_gate(entity);
+            return true;
+        }
+        if left > 0 {
+            return true;
+        }
+        let until = (gate.created + FIRST_CONTACT_DISCOVERY_LIMIT).max(since + gate.short);
+        if now < until {
+            self.gate_timer.arm(until, self.waker.as_ref());
+            return false;
+        }
+        tracing::info!(
+            ?entity,
+            held_ms = now.saturating_duration_since(gate.created).as_millis(),
+            "first-contact gate timed out; writing before every matched reader acknowledged"
+        );
+        self.close_gate(entity);
+        true
+    }
+
+    /// How a datawriter with `qos` is watched after its gate's first half: reliable keep-last writers on Fast
+    /// DDS are (their history evicts unacknowledged samples), others not.
+    fn ack_watch_for(&self, qos: &DdsQos) -> Acks {
+        match (qos.reliability, qos.history, self.bridge.engine()) {
+            (xrce_dds::Reliability::Reliable, xrce_dds::History::KeepLast(depth), xrce_dds::Engine::FastDds) => {
+                Acks::Pending { depth: usize::try_from(depth.max(1)).unwrap_or(usize::MAX) }
+            }
+            _ => Acks::Unwatched,
+        }
+    }
+
+    /// Forgets `entity`'s gate.
+    fn close_gate(&mut self, entity: EntityRef) {
         self.gates.remove(&entity);
         if self.gates.is_empty() && self.held.is_empty() {
             self.gate_timer.disarm();
         }
-        true
     }
 
     /// Publishes the ROS 2 graph with `mode`'s GIDs, or not at all ([`RosGraphMode::Off`]).
@@ -803,9 +885,14 @@ impl Middleware for Dds {
         // A replaced entity starts unpinned; the core pins it again with its next reliable read.
         self.pinned.remove(&creation.entity);
         if matches!(node.handle, Handle::Writer(_) | Handle::Replier(_)) {
-            self.gates.insert(creation.entity, Gate { created: creation.now, short: FIRST_CONTACT_GATE });
+            let acks = match &spec {
+                Spec::Endpoint { qos, .. } if matches!(node.handle, Handle::Writer(_)) => self.ack_watch_for(qos),
+                _ => Acks::Unwatched,
+            };
+            self.gates.insert(creation.entity, Gate { created: creation.now, short: FIRST_CONTACT_GATE, acks });
         } else if matches!(node.handle, Handle::Requester(_)) {
-            self.gates.insert(creation.entity, Gate { created: creation.now, short: FIRST_CONTACT_GATE_REQUESTER });
+            let gate = Gate { created: creation.now, short: FIRST_CONTACT_GATE_REQUESTER, acks: Acks::Unwatched };
+            self.gates.insert(creation.entity, gate);
         } else {
             self.gates.remove(&creation.entity);
         }
@@ -1021,7 +1108,7 @@ mod tests {
     #[test]
     fn gate_holds_long_only_while_a_known_readers_participant_is_in_discovery() {
         let created = Instant::now();
-        let gate = Gate { created, short: FIRST_CONTACT_GATE };
+        let gate = Gate { created, short: FIRST_CONTACT_GATE, acks: Acks::Unwatched };
         assert_eq!(gate.hold_until(GateWait::default()), None, "nothing to wait for: open");
         // A known reader unmatched although its participant's endpoints arrived (it will not match), or a
         // participant in discovery without a known reader: the short bound.
