@@ -367,10 +367,11 @@ int32_t xf_writer_matched_prefix(xf_writer* w, const uint8_t* prefix) {
 }
 
 // Readers `oracle` has discovered on the writer's topic and type, with a QoS the writer can serve, that the
-// writer has not matched yet (< 0: error). `oracle` may be the writer's own participant or another of the
-// process (one that has been running longer knows more).
-int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
-    XF_TRY
+// writer has not matched yet. `oracle` may be the writer's own participant or another of the process (one that
+// has been running longer knows more). May throw (callers catch).
+}  // extern "C"
+namespace {
+std::vector<GUID_t> unmatched_known_readers(xf_writer* w, xf_participant* oracle) {
     std::set<GUID_t> matched;
     {
         std::lock_guard<std::mutex> g(w->listener.m);
@@ -382,7 +383,7 @@ int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
     const bool reliable = q.reliability().kind == RELIABLE_RELIABILITY_QOS;
     const bool transient_local = q.durability().kind != VOLATILE_DURABILITY_QOS;
     const auto own = w->w->guid().guidPrefix;
-    int32_t n = 0;
+    std::vector<GUID_t> unmatched;
     std::lock_guard<std::mutex> g(oracle->discovery.m);
     for (const auto& kv : oracle->discovery.readers) {
         const GUID_t& guid = kv.first;
@@ -390,44 +391,31 @@ int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
         if (r.topic != topic || r.type != type) continue;
         if ((r.reliable && !reliable) || (r.transient_local && !transient_local)) continue;
         if (guid.guidPrefix == own || matched.count(guid) != 0) continue;
-        ++n;
+        unmatched.push_back(guid);
     }
-    return n;
+    return unmatched;
+}
+}  // namespace
+extern "C" {
+
+// How many readers unmatched_known_readers finds (< 0: error).
+int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
+    XF_TRY
+    return static_cast<int32_t>(unmatched_known_readers(w, oracle).size());
     XF_CATCH(-2)
 }
 
-// Of the readers xf_writer_unmatched_known counts, those whose participant the writer's own participant has
-// not discovered yet or has no endpoint of yet: discovery with them is under way, so the writer may still
-// match them (a reader whose participant's endpoints did arrive and that is still unmatched will not match).
+// Of the readers unmatched_known_readers finds, those whose participant the writer's own participant has not
+// discovered yet or has no endpoint of yet: discovery with them is under way, so the writer may still match
+// them (a reader whose participant's endpoints did arrive and that is still unmatched will not match).
 int32_t xf_writer_unmatched_in_discovery(xf_writer* w, xf_participant* oracle) {
     XF_TRY
-    std::set<GUID_t> matched;
-    {
-        std::lock_guard<std::mutex> g(w->listener.m);
-        matched = w->listener.matched;
-    }
-    const std::string topic = w->w->get_topic()->get_name();
-    const std::string type = w->w->get_topic()->get_type_name();
-    const DataWriterQos q = w->w->get_qos();
-    const bool reliable = q.reliability().kind == RELIABLE_RELIABILITY_QOS;
-    const bool transient_local = q.durability().kind != VOLATILE_DURABILITY_QOS;
-    const auto own = w->w->guid().guidPrefix;
-    std::vector<GuidPrefix_t> candidates;
-    {
-        std::lock_guard<std::mutex> g(oracle->discovery.m);
-        for (const auto& kv : oracle->discovery.readers) {
-            const GUID_t& guid = kv.first;
-            const KnownReader& r = kv.second;
-            if (r.topic != topic || r.type != type) continue;
-            if ((r.reliable && !reliable) || (r.transient_local && !transient_local)) continue;
-            if (guid.guidPrefix == own || matched.count(guid) != 0) continue;
-            candidates.push_back(guid.guidPrefix);
-        }
-    }
+    const std::vector<GUID_t> unmatched = unmatched_known_readers(w, oracle);
     xf_participant* mine = w->owner;
     std::lock_guard<std::mutex> g(mine->discovery.m);
     int32_t n = 0;
-    for (const auto& prefix : candidates) {
+    for (const auto& guid : unmatched) {
+        const auto& prefix = guid.guidPrefix;
         if (mine->discovery.discovered.count(prefix) == 0 || mine->discovery.awaiting_endpoints.count(prefix) != 0) ++n;
     }
     return n;
