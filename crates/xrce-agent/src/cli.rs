@@ -286,7 +286,7 @@ Example: xrce-agent udp4 -p 8888 -m ced -v6";
 #[derive(Debug, Parser)]
 #[command(
     name = "xrce-agent",
-    version,
+    version = concat!(env!("CARGO_PKG_VERSION"), " (DDS engine: ", env!("XRCE_AGENT_DDS_BUILT_WITH"), ")"),
     about = "DDS-XRCE agent, a drop-in replacement for eProsima's MicroXRCEAgent",
     subcommand_required = true,
     arg_required_else_help = true,

@@ -186,6 +186,9 @@ impl Drop for Topic {
     }
 }
 
+/// The Fast DDS this build links and where it was found (`Fast DDS 2.14.5 (/opt/ros/jazzy)`), or why none.
+pub const BUILT_WITH: &str = env!("XRCE_FASTDDS_BUILT_WITH");
+
 /// Whether this build links Fast DDS (false when it was compiled without Fast DDS' headers).
 pub fn available() -> bool {
     // SAFETY: takes nothing, returns a constant.
