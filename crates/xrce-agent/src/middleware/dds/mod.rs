@@ -299,8 +299,9 @@ enum Acks {
     Unwatched,
     /// Still matching the known readers; then up to `depth` writes before the acknowledgements.
     Pending { depth: usize },
-    /// Matched: `left` more writes may go before every matched reader has acknowledged, watched since `since`.
-    Watching { since: Instant, left: usize },
+    /// Matched: `left` of `depth` writes may still go before every matched reader has acknowledged, watched
+    /// since `since`.
+    Watching { since: Instant, left: usize, depth: usize },
 }
 
 /// What a gate still waits for.
@@ -312,7 +313,40 @@ struct GateWait {
     unmatched: usize,
 }
 
+/// What the second half of a gate ([`Acks::Watching`]) lets a write do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AfterMatch {
+    /// Go; the gate stays.
+    Write,
+    /// Wait until then at most (every matched reader may acknowledge meanwhile).
+    Hold(Instant),
+    /// Go, and forget the gate: every matched reader acknowledged, or the wait timed out.
+    Open { timed_out: bool },
+}
+
 impl Gate {
+    /// The second half: a write may go while writes are left; once none is, when every matched reader has
+    /// acknowledged (`acked`, asked only once something was written) or at the deadline.
+    fn after_match(self, acked: impl FnOnce() -> bool, now: Instant) -> AfterMatch {
+        let Acks::Watching { since, left, depth } = self.acks else { return AfterMatch::Open { timed_out: false } };
+        if left == depth {
+            // Nothing written since the match: nothing to acknowledge yet.
+            return AfterMatch::Write;
+        }
+        if acked() {
+            return AfterMatch::Open { timed_out: false };
+        }
+        if left > 0 {
+            return AfterMatch::Write;
+        }
+        let until = (self.created + FIRST_CONTACT_DISCOVERY_LIMIT).max(since + self.short);
+        if now < until {
+            AfterMatch::Hold(until)
+        } else {
+            AfterMatch::Open { timed_out: true }
+        }
+    }
+
     /// Until when writes wait for `wait`; `None`: nothing to wait for.
     fn hold_until(self, wait: GateWait) -> Option<Instant> {
         if wait.readers_in_discovery > 0 {
@@ -542,8 +576,8 @@ impl Dds {
     /// with the writer's, the gate's own (short) one otherwise.
     fn gate_open(&mut self, entity: EntityRef, now: Instant) -> bool {
         let Some(&gate) = self.gates.get(&entity) else { return true };
-        if let Acks::Watching { since, left } = gate.acks {
-            return self.acks_open(entity, gate, since, left, now);
+        if let Acks::Watching { .. } = gate.acks {
+            return self.acks_open(entity, gate, now);
         }
         let wait = match self.entities.get(&entity).map(|n| &n.handle) {
             Some(Handle::Writer(w)) => GateWait {
@@ -578,7 +612,7 @@ impl Dds {
         }
         if let Acks::Pending { depth } = gate.acks {
             if let Some(g) = self.gates.get_mut(&entity) {
-                g.acks = Acks::Watching { since: now, left: depth };
+                g.acks = Acks::Watching { since: now, left: depth, depth };
                 return true;
             }
         }
@@ -586,33 +620,32 @@ impl Dds {
         true
     }
 
-    /// The second half of a datawriter's gate ([`Acks`]): open while writes are left or once every matched
-    /// reader has acknowledged; at the deadline, open anyway.
-    fn acks_open(&mut self, entity: EntityRef, gate: Gate, since: Instant, left: usize, now: Instant) -> bool {
-        let acked = match self.entities.get(&entity).map(|n| &n.handle) {
+    /// The second half of a datawriter's gate ([`Acks`]): see [`Gate::after_match`].
+    fn acks_open(&mut self, entity: EntityRef, gate: Gate, now: Instant) -> bool {
+        let acked = || match self.entities.get(&entity).map(|n| &n.handle) {
             Some(Handle::Writer(w)) => w.writer.wait_for_acknowledgments(Duration::ZERO).unwrap_or(true),
             _ => true,
         };
-        if acked {
-            tracing::debug!(?entity, "first-contact gate open: every matched reader acknowledged");
-            self.close_gate(entity);
-            return true;
+        match gate.after_match(acked, now) {
+            AfterMatch::Write => true,
+            AfterMatch::Hold(until) => {
+                self.gate_timer.arm(until, self.waker.as_ref());
+                false
+            }
+            AfterMatch::Open { timed_out } => {
+                if timed_out {
+                    tracing::info!(
+                        ?entity,
+                        held_ms = now.saturating_duration_since(gate.created).as_millis(),
+                        "first-contact gate timed out; writing before every matched reader acknowledged"
+                    );
+                } else {
+                    tracing::debug!(?entity, "first-contact gate open: every matched reader acknowledged");
+                }
+                self.close_gate(entity);
+                true
+            }
         }
-        if left > 0 {
-            return true;
-        }
-        let until = (gate.created + FIRST_CONTACT_DISCOVERY_LIMIT).max(since + gate.short);
-        if now < until {
-            self.gate_timer.arm(until, self.waker.as_ref());
-            return false;
-        }
-        tracing::info!(
-            ?entity,
-            held_ms = now.saturating_duration_since(gate.created).as_millis(),
-            "first-contact gate timed out; writing before every matched reader acknowledged"
-        );
-        self.close_gate(entity);
-        true
     }
 
     /// How a datawriter with `qos` is watched after its gate's first half: reliable keep-last writers on Fast
@@ -1104,6 +1137,26 @@ mod tests {
     use super::*;
     use xrce_dds::{Durability, History, Reliability};
     use xrce_proto::object::{EndpointQos as BinaryQos, QosFlags};
+
+    #[test]
+    fn after_the_match_a_gate_lets_depth_writes_go_then_waits_for_the_acknowledgements() {
+        let created = Instant::now();
+        let since = created + Duration::from_millis(100);
+        let watching =
+            |left| Gate { created, short: FIRST_CONTACT_GATE, acks: Acks::Watching { since, left, depth: 3 } };
+        let never = || -> bool { panic!("nothing was written: acknowledgements are not asked") };
+        // Nothing written since the match: go, whatever the acknowledgements (none is owed yet).
+        assert_eq!(watching(3).after_match(never, since), AfterMatch::Write);
+        // Written and acknowledged by every matched reader: the gate opens for good.
+        assert_eq!(watching(2).after_match(|| true, since), AfterMatch::Open { timed_out: false });
+        // Written, not acknowledged yet: go while the history still holds what was written...
+        assert_eq!(watching(1).after_match(|| false, since), AfterMatch::Write);
+        // ...then wait, until the discovery limit at most.
+        let until = created + FIRST_CONTACT_DISCOVERY_LIMIT;
+        assert_eq!(watching(0).after_match(|| false, since), AfterMatch::Hold(until));
+        assert_eq!(watching(0).after_match(|| false, until), AfterMatch::Open { timed_out: true });
+        assert_eq!(watching(0).after_match(|| true, since), AfterMatch::Open { timed_out: false });
+    }
 
     #[test]
     fn gate_holds_long_only_while_a_known_readers_participant_is_in_discovery() {
