@@ -65,9 +65,10 @@
 //!   reader's participant is still in discovery with the writer's; the core keeps the client's reliable message and
 //!   retries it when a small timer thread wakes it ([`GATE_RECHECK`], only while a write is held). Readers
 //!   not discovered yet are the ordinary late joiners and are not waited for. Whether the *remote* reader
-//!   has matched our writer is not observable (an unmatched reader sends nothing) and need not be: once
-//!   our reliable writer has matched it, the sample is kept for it until it acknowledges, so a reader that
-//!   matches later still gets it from the writer's heartbeats. With `eager_participant` (the CLI default)
+//!   has matched our writer shows only in its acknowledgements: once our reliable writer has matched it, the
+//!   writer keeps samples for it, but a keep-last one only its last `depth`; so a reliable keep-last writer
+//!   then writes at most `depth` samples until every matched reader has acknowledged ([`Acks`], same
+//!   bound). With `eager_participant` (the CLI default)
 //!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
 //!   running are known before the first client arrives. A requester also holds its first request while no
 //!   replier has matched at all ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer
