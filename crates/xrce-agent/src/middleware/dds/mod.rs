@@ -67,7 +67,7 @@
 //!   not discovered yet are the ordinary late joiners and are not waited for. Whether the *remote* reader
 //!   has matched our writer shows only in its acknowledgements: once our reliable writer has matched it, the
 //!   writer keeps samples for it, but a keep-last one only its last `depth`; so a reliable keep-last writer
-//!   then writes at most `depth` samples until every matched reader has acknowledged ([`Acks`], same
+//!   then writes at most `depth` samples until every matched reader has acknowledged (`Acks`, same
 //!   bound). With `eager_participant` (the CLI default)
 //!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
 //!   running are known before the first client arrives. A requester also holds its first request while no
