@@ -278,7 +278,7 @@ impl Node {
 
 /// A first-contact gate: when it was set, its bound while no known reader's participant is in discovery,
 /// and, once the writer matched the known readers, how many more writes may go before every matched reader
-/// has acknowledged one ([`AckWatch`]).
+/// has acknowledged one ([`Acks`]).
 #[derive(Debug, Clone, Copy)]
 struct Gate {
     created: Instant,
