@@ -25,7 +25,7 @@ use crate::core::{AgentCore, CoreConfig};
 use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
 use crate::middleware::profiles::StoreProfiles;
 use crate::middleware::ros_graph::RosGraphMode;
-use crate::middleware::{DdsOptions, MiddlewareKind, UnsupportedMiddleware};
+use crate::middleware::{BuildError, DdsOptions, MiddlewareKind};
 use crate::transport::discovery::DiscoveryServer;
 use crate::transport::tcp::{ConnId, TcpServer};
 use crate::transport::udp::UdpServer;
@@ -44,7 +44,7 @@ pub enum AgentError {
     Cli(#[from] clap::Error),
     /// The middleware is not available.
     #[error(transparent)]
-    Middleware(#[from] UnsupportedMiddleware),
+    Middleware(#[from] BuildError),
     /// The transport is not available on this system.
     #[error("transport `{0}` is not available on this system; available: udp4, udp6, tcp4, tcp6 (and on Linux serial, multiserial, pseudoterminal, canfd)")]
     Transport(&'static str),
@@ -157,7 +157,7 @@ macro_rules! entity_api {
 
 impl<E: Copy + Eq + Hash + Debug + Send + 'static> Agent<E> {
     /// An agent on `kind` (only CED exists yet) with the given core limits.
-    pub fn new(kind: MiddlewareKind, config: CoreConfig) -> Result<Self, UnsupportedMiddleware> {
+    pub fn new(kind: MiddlewareKind, config: CoreConfig) -> Result<Self, BuildError> {
         Self::with_dds(kind, config, RosGraphMode::default(), DdsOptions::default())
     }
 
@@ -168,7 +168,7 @@ impl<E: Copy + Eq + Hash + Debug + Send + 'static> Agent<E> {
         config: CoreConfig,
         ros_graph: RosGraphMode,
         options: DdsOptions,
-    ) -> Result<Self, UnsupportedMiddleware> {
+    ) -> Result<Self, BuildError> {
         let profiles = Arc::new(StoreProfiles::new());
         let middleware = kind.build_dds(profiles.clone(), ros_graph, options)?;
         let callbacks = CallbackRegistry::default();
@@ -505,6 +505,7 @@ fn dds_options(config: &Config) -> DdsOptions {
         engine: config.dds_engine.map(xrce_dds::Engine::from),
         eager_participant: config.eager_participant,
         share_participants: !config.participant_names,
+        shared_memory: config.dds_shm,
     }
 }
 

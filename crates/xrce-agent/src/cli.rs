@@ -79,6 +79,9 @@ pub struct Config {
     /// The DDS middleware gives each XRCE participant name its own DDS participant, which announces that
     /// name, as eProsima's agent does (`--participant-names`; ours). Off: all share the default one.
     pub participant_names: bool,
+    /// Shared memory beside UDPv4 for the Fast DDS participants (`--dds-shm`; ours); `None`: this build's
+    /// default (on when Fast DDS came from a ROS 2 installation, off for Debian's 2.9 under /usr).
+    pub dds_shm: Option<bool>,
     /// DDS engine of the DDS middleware (`--dds-engine`; ours); `None`: `XRCE_DDS_ENGINE`, else Fast DDS where
     /// built, else rustdds.
     pub dds_engine: Option<DdsEngine>,
@@ -264,6 +267,9 @@ Arguments per transport (place them after the transport):
                                       (dds middleware; ours) [default: on]
       --participant-names <on|off>    a DDS participant per XRCE participant name, announcing it; off:
                                       all share one, named xrce-rs (dds middleware; ours) [default: on]
+      --dds-shm <on|off>              shared memory beside UDPv4 with local nodes of the same Fast DDS
+                                      (dds middleware; ours) [default: on when built against a ROS 2
+                                      installation's Fast DDS, off for Debian's under /usr]
       --client-timeout <SECS>         remove a client silent this long with its entities, probing it
                                       from half of it; 0: never (ours) [default: 60]
       --allow <KEY[@ADDRESS]>         only these client keys (hex or *) from IP, IP/PREFIX or IP:PORT
@@ -368,6 +374,11 @@ struct CommonArgs {
     /// agent); off: every XRCE participant shares the default DDS participant (named `xrce-rs`).
     #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
     participant_names: OnOff,
+    /// DDS middleware (Fast DDS): shared memory beside UDPv4, as the ROS 2 nodes of the Fast DDS this agent
+    /// was built with use between themselves (default: on when built against a ROS 2 installation's Fast
+    /// DDS, off for Debian's under /usr, which ROS 2 nodes do not run).
+    #[arg(long, value_enum, value_name = "on|off")]
+    dds_shm: Option<OnOff>,
     /// Remove a client silent this many seconds (decimals allowed) with its entities, probing it from half
     /// of it on; 0: never, as eProsima. A client's `uxr_hl` property overrides it.
     #[arg(long, value_name = "SECS", default_value = "60", value_parser = parse_seconds)]
@@ -540,6 +551,7 @@ impl Cli {
             dds_engine: common.dds_engine,
             eager_participant: common.eager_participant == OnOff::On,
             participant_names: common.participant_names == OnOff::On,
+            dds_shm: common.dds_shm.map(|v| v == OnOff::On),
             client_timeout: Some(common.client_timeout).filter(|t| !t.is_zero()),
             auth: crate::core::AuthPolicy { allow: common.allow, psk },
         })
@@ -684,6 +696,7 @@ mod tests {
                 dds_engine: None,
                 eager_participant: true,
                 participant_names: true,
+                dds_shm: None,
                 client_timeout: Some(std::time::Duration::from_secs(60)),
                 auth: Default::default(),
             }

@@ -45,6 +45,11 @@ pub struct BridgeConfig {
     /// Domain used for XRCE domain 255; `None` reads [`DOMAIN_OVERRIDE_ENV`] at each participant creation,
     /// as eProsima does.
     pub domain_override: Option<u16>,
+    /// ROS 2 discovery settings (Fast DDS engine; [`crate::ros_env::from_env`] reads them as a node does).
+    pub discovery: crate::ros_env::DiscoverySettings,
+    /// Shared memory beside UDPv4 (Fast DDS engine); `None`: this build's default
+    /// (`xrce_fastdds_sys::SHARED_MEMORY_BY_DEFAULT`: on when Fast DDS came from a ROS 2 installation).
+    pub shared_memory: Option<bool>,
 }
 
 /// What makes two XRCE participants share a DDS participant.

@@ -1,4 +1,5 @@
-//! The Fast DDS engine (cargo feature `fastdds`): the bridge API over Fast DDS 2.9 through `xrce-fastdds-sys`.
+//! The Fast DDS engine (cargo feature `fastdds`): the bridge API over Fast DDS 2.x or 3.x through
+//! `xrce-fastdds-sys`.
 //!
 //! Why a second engine: RustDDS' reliable readers withhold samples from a newly matched Fast DDS writer until
 //! a HEARTBEAT arrives, and their first ACKNACK does not obtain one, so ROS 2 (rmw_fastrtps) first contact
@@ -17,6 +18,7 @@ use xrce_fastdds_sys as sys;
 
 use crate::qos::{Durability, EndpointQos, History, Reliability};
 use crate::reader::{Filter, ReceivedSample, Resume};
+use crate::ros_env::Range as DiscoveryRange;
 use crate::shared::{lock, TopicTable, WeakMap};
 use crate::{BridgeConfig, DdsError, ParticipantKey, SampleIdentity, SampleQueue};
 
@@ -64,6 +66,13 @@ impl Bridge {
                 // Fast DDS' default is 5 announcements 100 ms apart; a denser start lets peers that are
                 // already up discover us (and answer with their own SPDP) sooner.
                 announcements: (10, Duration::from_millis(50)),
+                shared_memory: self.config.shared_memory.unwrap_or(sys::SHARED_MEMORY_BY_DEFAULT),
+                range: match self.config.discovery.range {
+                    DiscoveryRange::Subnet | DiscoveryRange::SystemDefault => sys::DiscoveryRange::Default,
+                    DiscoveryRange::Localhost => sys::DiscoveryRange::Localhost,
+                    DiscoveryRange::Off => sys::DiscoveryRange::Off,
+                },
+                peers: self.config.discovery.initial_peers().iter().map(ToString::to_string).collect(),
             };
             let oracle = default.upgrade();
             let participant =

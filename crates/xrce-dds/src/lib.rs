@@ -1,5 +1,5 @@
 //! The DDS side of the XRCE agent: an untyped bridge from XRCE entities to a real DDS domain, built on the
-//! pure-Rust `rustdds` 0.15.1 or, with the `fastdds` feature and [`Engine::FastDds`], on Fast DDS 2.9
+//! pure-Rust `rustdds` 0.15.1 or, with the `fastdds` feature and [`Engine::FastDds`], on Fast DDS 2.x or 3.x
 //! (see `engine.rs` for the dispatch).
 //!
 //! * [`DdsBridge`] shares DDS participants per (domain, profile) among XRCE participants, so thousands of
@@ -25,6 +25,7 @@ mod fast;
 mod qos;
 mod raw;
 mod reader;
+pub mod ros_env;
 mod service;
 mod shared;
 
@@ -36,4 +37,5 @@ pub use qos::{
     MIN_RELIABLE_QUEUE,
 };
 pub use reader::{QueueWaker, ReceivedSample, SampleIdentity, SampleQueue};
+pub use ros_env::{DiscoverySettings, Range as DiscoveryRange, SettingsError};
 pub use service::{Replier, Requester, ServiceDescription, MAX_PENDING_REQUESTS};

@@ -20,6 +20,8 @@ fn config(name: &str) -> ParticipantConfig {
         name: name.to_owned(),
         whitelist: Vec::new(),
         announcements: (10, Duration::from_millis(50)),
+        shared_memory: xrce_fastdds_sys::SHARED_MEMORY_BY_DEFAULT,
+        ..ParticipantConfig::default()
     }
 }
 

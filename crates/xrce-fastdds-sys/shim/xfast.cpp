@@ -1,23 +1,7 @@
-// C ABI over Fast DDS 2.9 (Debian libfastrtps-dev) for untyped pub/sub: runtime topic and type names, payloads
-// are opaque CDR bodies. Every entry point catches C++ exceptions and reports failure through its return value,
-// because unwinding into Rust is undefined behaviour.
-#include <cstring>
-
-#include <fastdds/dds/domain/DomainParticipant.hpp>
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
-#include <fastdds/dds/domain/DomainParticipantListener.hpp>
-#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
-#include <fastdds/dds/publisher/DataWriter.hpp>
-#include <fastdds/dds/publisher/DataWriterListener.hpp>
-#include <fastdds/dds/publisher/Publisher.hpp>
-#include <fastdds/dds/subscriber/DataReader.hpp>
-#include <fastdds/dds/subscriber/DataReaderListener.hpp>
-#include <fastdds/dds/subscriber/SampleInfo.hpp>
-#include <fastdds/dds/subscriber/Subscriber.hpp>
-#include <fastdds/dds/topic/Topic.hpp>
-#include <fastdds/dds/topic/TopicDataType.hpp>
-#include <fastdds/rtps/common/WriteParams.h>
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+// C ABI over Fast DDS 2.x and 3.x for untyped pub/sub: runtime topic and type names, payloads are opaque CDR
+// bodies. What differs between the versions is in compat.hpp. Every entry point catches C++ exceptions and
+// reports failure through its return value, because unwinding into Rust is undefined behaviour.
+#include "compat.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -28,18 +12,7 @@
 #include <string>
 #include <vector>
 
-using namespace eprosima::fastdds::dds;
-using eprosima::fastrtps::Duration_t;
-using eprosima::fastrtps::rtps::GUID_t;
-using eprosima::fastrtps::rtps::InstanceHandle_t;
-using eprosima::fastrtps::rtps::GuidPrefix_t;
-using eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
-using eprosima::fastrtps::rtps::ReaderDiscoveryInfo;
-using eprosima::fastrtps::rtps::WriterDiscoveryInfo;
-using eprosima::fastrtps::rtps::SampleIdentity;
-using eprosima::fastrtps::rtps::SequenceNumber_t;
-using eprosima::fastrtps::rtps::SerializedPayload_t;
-using eprosima::fastrtps::rtps::WriteParams;
+using namespace xf;
 
 extern "C" {
 
@@ -66,7 +39,14 @@ struct xf_participant_cfg {
     size_t n_whitelist;
     uint32_t announcements;            // initial SPDP announcements
     uint32_t announcement_period_ms;
+    uint8_t shared_memory;             // 1: shared memory and UDPv4; 0: UDPv4 only
+    uint8_t range;                     // XF_RANGE_*: ROS_AUTOMATIC_DISCOVERY_RANGE as rmw_fastrtps applies it
+    uint8_t _pad[2];
+    const char* const* peers;          // initial peers (IPv4 addresses), added to the profile's
+    size_t n_peers;
 };
+// Discovery ranges (the Rust side resolves SUBNET's and SYSTEM_DEFAULT's difference: the peers it passes).
+enum { XF_RANGE_DEFAULT = 0, XF_RANGE_LOCALHOST = 1, XF_RANGE_OFF = 2 };
 struct xf_take_info {
     xf_sample_identity sample_identity;
     xf_sample_identity related_sample_identity;
@@ -91,46 +71,35 @@ struct RawData {
 };
 
 // Opaque type with a runtime name: payload = encapsulation header + body as given.
-class RawType : public TopicDataType {
+class RawType : public OpaqueType {
 public:
-    RawType(const std::string& name, bool keyed) {
-        setName(name.c_str());
-        m_typeSize = 4 + 64;  // a hint only: endpoints use dynamic payload memory
-        m_isGetKeyDefined = keyed;
-    }
-    bool serialize(void* data, SerializedPayload_t* p) override {
-        auto* d = static_cast<RawData*>(data);
+    // The size is a hint only: endpoints use dynamic payload memory.
+    RawType(const std::string& name, bool keyed) : OpaqueType(name, keyed, 4 + 64) {}
+    bool encode(const void* data, SerializedPayload_t& p) override {
+        const auto* d = static_cast<const RawData*>(data);
         size_t need = 4 + d->out_len;
-        if (p->max_size < need) return false;
-        p->data[0] = static_cast<uint8_t>(d->encapsulation >> 8);
-        p->data[1] = static_cast<uint8_t>(d->encapsulation & 0xff);
-        p->data[2] = 0;
-        p->data[3] = 0;
-        if (d->out_len) std::memcpy(p->data + 4, d->out, d->out_len);
-        p->length = static_cast<uint32_t>(need);
-        p->encapsulation = (d->encapsulation & 1) ? CDR_LE : CDR_BE;
+        if (p.max_size < need) return false;
+        p.data[0] = static_cast<uint8_t>(d->encapsulation >> 8);
+        p.data[1] = static_cast<uint8_t>(d->encapsulation & 0xff);
+        p.data[2] = 0;
+        p.data[3] = 0;
+        if (d->out_len) std::memcpy(p.data + 4, d->out, d->out_len);
+        p.length = static_cast<uint32_t>(need);
+        p.encapsulation = (d->encapsulation & 1) ? CDR_LE : CDR_BE;
         return true;
     }
-    bool deserialize(SerializedPayload_t* p, void* data) override {
+    bool decode(const SerializedPayload_t& p, void* data) override {
         auto* d = static_cast<RawData*>(data);
-        if (p->length < 4) return false;
-        d->encapsulation = static_cast<uint16_t>((p->data[0] << 8) | p->data[1]);
-        d->in.assign(p->data + 4, p->data + p->length);
+        if (p.length < 4) return false;
+        d->encapsulation = static_cast<uint16_t>((p.data[0] << 8) | p.data[1]);
+        d->in.assign(p.data + 4, p.data + p.length);
         return true;
     }
-    std::function<uint32_t()> getSerializedSizeProvider(void* data) override {
-        auto* d = static_cast<RawData*>(data);
-        return [d]() { return static_cast<uint32_t>(4 + d->out_len); };
+    uint32_t encoded_size(const void* data) override {
+        return static_cast<uint32_t>(4 + static_cast<const RawData*>(data)->out_len);
     }
-    void* createData() override { return new RawData(); }
-    void deleteData(void* data) override { delete static_cast<RawData*>(data); }
-    bool getKey(void*, InstanceHandle_t* h, bool) override {
-        // The agent cannot compute a key from opaque bytes: one constant instance, as the rustdds engine does.
-        if (!m_isGetKeyDefined) return false;
-        for (int i = 0; i < 16; ++i) h->value[i] = 0;  // operator[] also marks the handle as defined
-        h->value[15] = 1;
-        return true;
-    }
+    void* new_data() override { return new RawData(); }
+    void free_data(void* data) override { delete static_cast<RawData*>(data); }
 };
 
 void put_guid(const GUID_t& g, xf_guid* out) {
@@ -148,7 +117,7 @@ void put_si(const SampleIdentity& s, xf_sample_identity* out) {
     const auto& sn = s.sequence_number();
     out->sn = (sn == SequenceNumber_t::unknown()) ? -1 : static_cast<int64_t>(sn.to64long());
 }
-Duration_t ms(uint32_t v) { return Duration_t(static_cast<int32_t>(v / 1000), (v % 1000) * 1000000u); }
+Duration ms(uint32_t v) { return Duration(static_cast<int32_t>(v / 1000), (v % 1000) * 1000000u); }
 
 // The callback runs under `m`, so clearing it (before deletion) waits for a callback in progress: after
 // xf_reader_delete returns, Rust may free the context.
@@ -171,16 +140,15 @@ struct KnownReader {
     bool reliable;
     bool transient_local;
 };
-struct Discovery : public DomainParticipantListener {
+struct Discovery : public DiscoveryListener {
     std::mutex m;
     std::map<GUID_t, KnownReader> readers;
     std::set<GuidPrefix_t> awaiting_endpoints;
     std::set<GuidPrefix_t> participants;  // remote ones alive, of other processes
     std::set<GuidPrefix_t> discovered;    // every one alive, the agent's other participants included
-    void on_participant_discovery(DomainParticipant* self, ParticipantDiscoveryInfo&& info) override {
+    void participant(DomainParticipant* self, const GuidPrefix_t& p, Seen what) override {
         std::lock_guard<std::mutex> g(m);
-        const GuidPrefix_t& p = info.info.m_guid.guidPrefix;
-        if (info.status == ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
+        if (what == Seen::added) {
             discovered.insert(p);
             // The agent's other participants (same host and process bytes of the prefix) are not awaited.
             const bool same_process = std::memcmp(p.value, self->guid().guidPrefix.value, 8) == 0;
@@ -188,29 +156,23 @@ struct Discovery : public DomainParticipantListener {
                 awaiting_endpoints.insert(p);
                 participants.insert(p);
             }
-        } else if (info.status != ParticipantDiscoveryInfo::CHANGED_QOS_PARTICIPANT) {
+        } else if (what == Seen::removed) {
             awaiting_endpoints.erase(p);
             participants.erase(p);
             discovered.erase(p);
         }
     }
-    void on_publisher_discovery(DomainParticipant*, WriterDiscoveryInfo&& info) override {
+    void writer(const GuidPrefix_t& p) override {
         std::lock_guard<std::mutex> g(m);
-        awaiting_endpoints.erase(info.info.guid().guidPrefix);
+        awaiting_endpoints.erase(p);
     }
-    void on_subscriber_discovery(DomainParticipant*, ReaderDiscoveryInfo&& info) override {
+    void reader(const SeenReader& r, Seen what) override {
         std::lock_guard<std::mutex> g(m);
-        const auto& r = info.info;
-        awaiting_endpoints.erase(r.guid().guidPrefix);
-        switch (info.status) {
-            case ReaderDiscoveryInfo::DISCOVERED_READER:
-            case ReaderDiscoveryInfo::CHANGED_QOS_READER:
-                readers[r.guid()] = KnownReader{r.topicName().to_string(), r.typeName().to_string(),
-                                                r.m_qos.m_reliability.kind == RELIABLE_RELIABILITY_QOS,
-                                                r.m_qos.m_durability.kind != VOLATILE_DURABILITY_QOS};
-                break;
-            default:
-                readers.erase(r.guid());
+        awaiting_endpoints.erase(r.guid.guidPrefix);
+        if (what == Seen::removed) {
+            readers.erase(r.guid);
+        } else {
+            readers[r.guid] = KnownReader{r.topic, r.type, r.reliable, r.transient_local};
         }
     }
 };
@@ -220,7 +182,7 @@ struct MatchListener : public DataWriterListener {
     std::mutex m;
     std::set<GUID_t> matched;
     void on_publication_matched(DataWriter*, const PublicationMatchedStatus& s) override {
-        GUID_t g = eprosima::fastrtps::rtps::iHandle2GUID(s.last_subscription_handle);
+        GUID_t g = handle_to_guid(s.last_subscription_handle);
         std::lock_guard<std::mutex> l(m);
         if (s.current_count_change > 0) matched.insert(g);
         if (s.current_count_change < 0) matched.erase(g);
@@ -238,8 +200,8 @@ template <class Q> void apply_common(Q& q, const xf_qos& x) {
     q.resource_limits().max_samples_per_instance = x.max_samples_per_instance > 0 ? x.max_samples_per_instance : -1;
     // Preallocating the whole history would cost max_samples payloads per endpoint at creation.
     q.resource_limits().allocated_samples = x.max_samples > 0 ? std::min(x.max_samples, 64) : 64;
-    q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
-    // Data sharing maps segments in /dev/shm, which Fast DDS 2.14 peers lay out differently.
+    q.endpoint().history_memory_policy = rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+    // Data sharing needs bounded types; these are opaque and unbounded.
     q.data_sharing().off();
 }
 
@@ -262,15 +224,72 @@ extern "C" {
 
 int xf_available() { return 1; }
 
+// Loads the user's Fast DDS profiles as an rmw_fastrtps node does before its participant: the file its
+// version's variable names (FASTRTPS_DEFAULT_PROFILES_FILE in 2.x, FASTDDS_DEFAULT_PROFILES_FILE in 3.x) and
+// the default file of the working directory. Their default participant and endpoint profiles are the base of
+// every participant of the agent. `file` (absolute, or null) is that variable's file, loaded first because
+// load_profiles() reports no parse error (Fast DDS keeps it as loaded, so it is not parsed twice). 0, or -1
+// when `file` does not parse (Fast DDS has logged why).
+int xf_load_profiles(const char* file) {
+    XF_TRY
+    auto* factory = DomainParticipantFactory::get_instance();
+    if (file && !ok(factory->load_XML_profiles_file(file))) return -1;
+    return ok(factory->load_profiles()) ? 0 : -1;
+    XF_CATCH(-2)
+}
+
+}  // extern "C"
+namespace {
+// Whether the profile set the transports itself (then they are the user's, and kept).
+bool profile_sets_transports(const DomainParticipantQos& q) {
+    return !q.transport().use_builtin_transports || !q.transport().user_transports.empty();
+}
+
+// The transports and discovery of `c` on top of the user's profile (`q`), as an rmw_fastrtps node of the same
+// distribution applies ROS_AUTOMATIC_DISCOVERY_RANGE and ROS_STATIC_PEERS to its participant.
+void apply_discovery(DomainParticipantQos& q, const xf_participant_cfg* c) {
+    const bool localhost = c->range == XF_RANGE_LOCALHOST;
+    const bool off = c->range == XF_RANGE_OFF;
+    const bool explicit_udp = localhost || !c->shared_memory || c->n_whitelist > 0;
+    if (!profile_sets_transports(q) && explicit_udp) {
+        // Built-in transports are SHM + UDPv4 (Fast DDS' default, what a ROS node runs); an interface list,
+        // a LOCALHOST range or shared memory off need their own descriptors.
+        q.transport().use_builtin_transports = false;
+        if (c->shared_memory) {
+            q.transport().user_transports.push_back(std::make_shared<transport::SharedMemTransportDescriptor>());
+        }
+        auto udp = std::make_shared<transport::UDPv4TransportDescriptor>();
+        for (size_t i = 0; i < c->n_whitelist; ++i) udp->interfaceWhiteList.emplace_back(c->whitelist[i]);
+        // rmw_fastrtps' number for LOCALHOST: participants on one host reached by unicast port probing.
+        if (localhost) udp->maxInitialPeersRange = 32;
+        q.transport().user_transports.push_back(udp);
+    }
+    auto& builtin = q.wire_protocol().builtin;
+    if (localhost || off) {
+        // No multicast discovery; a default unicast locator keeps Fast DDS from adding a multicast one.
+        builtin.metatrafficMulticastLocatorList.clear();
+        builtin.metatrafficUnicastLocatorList.push_back(rtps::Locator_t());
+    }
+    if (off) {
+        q.allocation().participants.initial = 1;
+        q.allocation().participants.maximum = 1;
+        q.allocation().participants.increment = 0;
+    }
+    for (size_t i = 0; i < c->n_peers; ++i) {
+        rtps::Locator_t peer;
+        rtps::IPLocator::setIPv4(peer, std::string(c->peers[i]));
+        builtin.initialPeersList.push_back(peer);
+    }
+}
+}  // namespace
+extern "C" {
+
 xf_participant* xf_participant_new(const xf_participant_cfg* c) {
     XF_TRY
-    DomainParticipantQos q = PARTICIPANT_QOS_DEFAULT;
+    // The user's default profile first (as rmw_fastrtps), then ours: name, discovery settings, announcements.
+    DomainParticipantQos q = DomainParticipantFactory::get_instance()->get_default_participant_qos();
     q.name(c->name ? c->name : "xrce-rs");
-    // UDPv4 only: the SHM transport's segments are incompatible between Fast DDS 2.9 and 2.14.
-    q.transport().use_builtin_transports = false;
-    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-    for (size_t i = 0; i < c->n_whitelist; ++i) udp->interfaceWhiteList.emplace_back(c->whitelist[i]);
-    q.transport().user_transports.push_back(udp);
+    apply_discovery(q, c);
     auto& ann = q.wire_protocol().builtin.discovery_config.initial_announcements;
     ann.count = c->announcements;
     ann.period = ms(c->announcement_period_ms);
@@ -307,7 +326,7 @@ int xf_register_type(xf_participant* p, const char* type_name, uint8_t keyed) {
     XF_TRY
     if (p->p->find_type(type_name).get() != nullptr) return 0;
     TypeSupport ts(new RawType(type_name, keyed != 0));
-    return p->p->register_type(ts) == ReturnCode_t::RETCODE_OK ? 0 : -1;
+    return ok(p->p->register_type(ts)) ? 0 : -1;
     XF_CATCH(-2)
 }
 
@@ -327,9 +346,10 @@ xf_writer* xf_writer_new(xf_participant* p, Topic* t, const xf_qos* qos, const c
     for (size_t i = 0; i < n_parts; ++i) pq.partition().push_back(parts[i]);
     Publisher* pub = p->p->create_publisher(pq);
     if (!pub) return nullptr;
-    DataWriterQos q = DATAWRITER_QOS_DEFAULT;
+    // The user's default profile first, then the XRCE client's QoS (ours win: the client asked for them).
+    DataWriterQos q = pub->get_default_datawriter_qos();
     apply_common(q, *qos);
-    q.reliable_writer_qos().times.heartbeatPeriod = ms(qos->heartbeat_ms);
+    set_heartbeat_period(q, ms(qos->heartbeat_ms));
     auto* w = new xf_writer{nullptr, pub, {}, p};
     w->w = pub->create_datawriter(t, q, &w->listener, StatusMask::publication_matched());
     if (!w->w) { p->p->delete_publisher(pub); delete w; return nullptr; }
@@ -348,7 +368,7 @@ void xf_writer_guid(const xf_writer* w, xf_guid* out) { put_guid(w->w->guid(), o
 int32_t xf_writer_matched(xf_writer* w) {
     XF_TRY
     PublicationMatchedStatus s;
-    if (w->w->get_publication_matched_status(s) != ReturnCode_t::RETCODE_OK) return -1;
+    if (!ok(w->w->get_publication_matched_status(s))) return -1;
     return s.current_count;
     XF_CATCH(-2)
 }
@@ -492,8 +512,8 @@ int32_t xf_participant_reannounce_unheard(xf_participant* p) {
         if (x == p || x->p->get_domain_id() != domain || heard.count(x->p->guid().guidPrefix) != 0) continue;
         DomainParticipantQos q = x->p->get_qos();
         const std::string tag = "xrce-rs-announce=" + std::to_string(++x->reannounced) + ";";
-        q.user_data().data_vec(std::vector<eprosima::fastrtps::rtps::octet>(tag.begin(), tag.end()));
-        if (x->p->set_qos(q) == ReturnCode_t::RETCODE_OK) ++n;
+        q.user_data().data_vec(std::vector<rtps::octet>(tag.begin(), tag.end()));
+        if (ok(x->p->set_qos(q))) ++n;
     }
     return n;
     XF_CATCH(-2)
@@ -515,7 +535,7 @@ int xf_write(xf_writer* w, const uint8_t* body, size_t len, const xf_sample_iden
             wp.related_sample_identity().sequence_number(sn);
         }
     }
-    if (!w->w->write(&d, wp)) return -1;
+    if (!xf::write(w->w, &d, wp)) return -1;
     if (written) put_si(wp.sample_identity(), written);
     return 0;
     XF_CATCH(-2)
@@ -523,7 +543,7 @@ int xf_write(xf_writer* w, const uint8_t* body, size_t len, const xf_sample_iden
 
 int xf_writer_wait_acked(xf_writer* w, uint32_t wait_ms) {
     XF_TRY
-    return w->w->wait_for_acknowledgments(ms(wait_ms)) == ReturnCode_t::RETCODE_OK ? 0 : -1;
+    return ok(w->w->wait_for_acknowledgments(ms(wait_ms))) ? 0 : -1;
     XF_CATCH(-2)
 }
 
@@ -535,9 +555,9 @@ xf_reader* xf_reader_new(xf_participant* p, Topic* t, const xf_qos* qos, const c
     for (size_t i = 0; i < n_parts; ++i) sq.partition().push_back(parts[i]);
     Subscriber* sub = p->p->create_subscriber(sq);
     if (!sub) return nullptr;
-    DataReaderQos q = DATAREADER_QOS_DEFAULT;
+    DataReaderQos q = sub->get_default_datareader_qos();
     apply_common(q, *qos);
-    q.reliable_reader_qos().times.initialAcknackDelay = ms(qos->acknack_delay_ms);
+    set_initial_acknack_delay(q, ms(qos->acknack_delay_ms));
     auto* r = new xf_reader{nullptr, sub, {}, {}};
     r->listener.cb = cb;
     r->listener.ctx = ctx;
@@ -562,7 +582,7 @@ void xf_reader_guid(const xf_reader* r, xf_guid* out) { put_guid(r->r->guid(), o
 int32_t xf_reader_matched(xf_reader* r) {
     XF_TRY
     SubscriptionMatchedStatus s;
-    if (r->r->get_subscription_matched_status(s) != ReturnCode_t::RETCODE_OK) return -1;
+    if (!ok(r->r->get_subscription_matched_status(s))) return -1;
     return s.current_count;
     XF_CATCH(-2)
 }
@@ -573,8 +593,8 @@ int xf_take(xf_reader* r, xf_take_info* info) {
     XF_TRY
     SampleInfo si;
     ReturnCode_t rc = r->r->take_next_sample(&r->scratch, &si);
-    if (rc == ReturnCode_t::RETCODE_NO_DATA) return 0;
-    if (rc != ReturnCode_t::RETCODE_OK) return -1;
+    if (no_data(rc)) return 0;
+    if (!ok(rc)) return -1;
     put_si(si.sample_identity, &info->sample_identity);
     put_si(si.related_sample_identity, &info->related_sample_identity);
     info->valid_data = si.valid_data ? 1 : 0;

@@ -44,6 +44,11 @@ pub(crate) struct ParticipantCfg {
     pub n_whitelist: usize,
     pub announcements: u32,
     pub announcement_period_ms: u32,
+    pub shared_memory: u8,
+    pub range: u8,
+    pub _pad: [u8; 2],
+    pub peers: *const *const c_char,
+    pub n_peers: usize,
 }
 
 #[repr(C)]
@@ -66,6 +71,7 @@ pub(crate) type Cb = extern "C" fn(*mut c_void);
 extern "C" {
     /// 1 with Fast DDS, 0 in the stub built without it (build.rs).
     pub(crate) fn xf_available() -> c_int;
+    pub(crate) fn xf_load_profiles(file: *const c_char) -> c_int;
     pub(crate) fn xf_participant_new(cfg: *const ParticipantCfg) -> *mut XfParticipant;
     pub(crate) fn xf_participant_delete(p: *mut XfParticipant);
     pub(crate) fn xf_participant_guid(p: *const XfParticipant, out: *mut Guid);

@@ -1,9 +1,11 @@
-//! Fast DDS 2.9 (Debian's `libfastrtps-dev`) for the xrce-rs agent: a small C++ shim (`shim/xfast.cpp`) and
+//! Fast DDS 2.x or 3.x (where ROS 2 users have it: build.rs) for the xrce-rs agent: a small C++ shim
+//! (`shim/xfast.cpp`, the version differences in `shim/compat.hpp`) and
 //! safe wrappers for untyped pub/sub. Topic and type names are runtime strings and samples are opaque CDR
 //! bodies (the shim adds and strips the 4-byte encapsulation header), which is what an XRCE agent forwards.
 //!
-//! Participants use UDPv4 only, with SHM and data sharing off: Fast DDS 2.14 (ROS 2 Jazzy) lays out its
-//! `/dev/shm` segments differently and 2.9 aborts on them.
+//! Participants start from the user's default XML profile and use shared memory beside UDPv4 when asked
+//! ([`ParticipantConfig::shared_memory`]): only peers of the same Fast DDS version may share `/dev/shm`
+//! (2.9 aborts on 2.14's segments). Data sharing stays off (the types are opaque and unbounded).
 //!
 //! Lifetimes: every topic, writer and reader holds an `Arc` on its participant, so the participant is deleted
 //! last. A reader's data callback is installed at creation and removed (waiting for a call in progress) before
@@ -122,6 +124,26 @@ pub struct ParticipantConfig {
     pub whitelist: Vec<String>,
     /// Initial SPDP announcements: how many, and how far apart.
     pub announcements: (u32, Duration),
+    /// Shared memory beside UDPv4 (Fast DDS' built-in transports, as a ROS 2 node of the same distribution
+    /// runs); `false`: UDPv4 only. Ignored when the user's profile sets the transports.
+    pub shared_memory: bool,
+    /// How far automatic discovery reaches (`ROS_AUTOMATIC_DISCOVERY_RANGE`, as rmw_fastrtps applies it).
+    pub range: DiscoveryRange,
+    /// Initial peers (IPv4 addresses) added to the profile's: `ROS_STATIC_PEERS` resolved, and for the
+    /// LOCALHOST range `127.0.0.1`.
+    pub peers: Vec<String>,
+}
+
+/// How far a participant's automatic discovery reaches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DiscoveryRange {
+    /// Fast DDS' own: multicast on every interface (SUBNET and SYSTEM_DEFAULT).
+    #[default]
+    Default,
+    /// This host only: no multicast discovery, unicast to the peers (and `127.0.0.1`).
+    Localhost,
+    /// No automatic discovery at all.
+    Off,
 }
 
 fn cstr(s: &str) -> Result<CString, Error> {
@@ -189,6 +211,36 @@ impl Drop for Topic {
 /// The Fast DDS this build links and where it was found (`Fast DDS 2.14.5 (/opt/ros/jazzy)`), or why none.
 pub const BUILT_WITH: &str = env!("XRCE_FASTDDS_BUILT_WITH");
 
+/// The environment variable naming the user's profiles file that this build's Fast DDS reads:
+/// `FASTRTPS_DEFAULT_PROFILES_FILE` (2.x) or `FASTDDS_DEFAULT_PROFILES_FILE` (3.x); empty without Fast DDS.
+pub const PROFILES_ENV: &str = env!("XRCE_FASTDDS_PROFILES_ENV");
+
+/// Loads the user's Fast DDS XML profiles, as a ROS 2 node does before creating its participant: `file`
+/// (the one [`PROFILES_ENV`] names; `None` when unset) and `DEFAULT_FASTRTPS_PROFILES.xml` (3.x:
+/// `DEFAULT_FASTDDS_PROFILES.xml`) in the working directory. Their default participant and endpoint profiles
+/// are the base of what [`Participant::new`] creates. Fails when `file` does not parse (Fast DDS logs why);
+/// without Fast DDS, does nothing.
+pub fn load_profiles(file: Option<&std::path::Path>) -> Result<(), Error> {
+    // Fast DDS loads the variable's file by its absolute path; the same path marks it as loaded.
+    let absolute = file.map(|f| std::fs::canonicalize(f).unwrap_or_else(|_| f.to_path_buf()));
+    let c = absolute.map(|f| cstr(&f.to_string_lossy())).transpose()?;
+    // SAFETY: `c` is a NUL-terminated string alive for the call (or null); Fast DDS' factory is a
+    // process-wide singleton that synchronizes itself.
+    match unsafe { ffi::xf_load_profiles(c.as_ref().map_or(ptr::null(), |c| c.as_ptr())) } {
+        0 => Ok(()),
+        rc => Err(Error::Op("load_profiles", rc)),
+    }
+}
+
+/// Whether participants use shared memory unless told otherwise: true when this build's Fast DDS came from a
+/// ROS 2 installation (the nodes beside the agent run the same version), false for `/usr` (Debian's 2.9,
+/// which ROS 2 nodes do not run) and without Fast DDS.
+pub const SHARED_MEMORY_BY_DEFAULT: bool = const_str_is_true(env!("XRCE_FASTDDS_SHARED_MEMORY_DEFAULT"));
+
+const fn const_str_is_true(s: &str) -> bool {
+    matches!(s.as_bytes(), b"true")
+}
+
 /// Whether this build links Fast DDS (false when it was compiled without Fast DDS' headers).
 pub fn available() -> bool {
     // SAFETY: takes nothing, returns a constant.
@@ -196,13 +248,14 @@ pub fn available() -> bool {
 }
 
 impl Participant {
-    /// Creates a participant (UDPv4 only, no SHM, no data sharing).
+    /// Creates a participant from the user's default profile (see [`load_profiles`]) and `cfg`.
     pub fn new(cfg: &ParticipantConfig) -> Result<Self, Error> {
         if !available() {
             return Err(Error::Unavailable);
         }
         let name = cstr(&cfg.name)?;
         let wl = cstrs(&cfg.whitelist)?;
+        let peers = cstrs(&cfg.peers)?;
         let raw = ffi::ParticipantCfg {
             domain: cfg.domain,
             name: name.as_ptr(),
@@ -210,6 +263,15 @@ impl Participant {
             n_whitelist: wl.ptrs.len(),
             announcements: cfg.announcements.0,
             announcement_period_ms: millis(cfg.announcements.1).max(1),
+            shared_memory: u8::from(cfg.shared_memory),
+            range: match cfg.range {
+                DiscoveryRange::Default => 0,
+                DiscoveryRange::Localhost => 1,
+                DiscoveryRange::Off => 2,
+            },
+            _pad: [0; 2],
+            peers: peers.ptrs.as_ptr(),
+            n_peers: peers.ptrs.len(),
         };
         // SAFETY: raw and every string it points to are alive for the call; the shim copies them.
         let p = unsafe { ffi::xf_participant_new(&raw) };

@@ -389,6 +389,18 @@ pub enum MiddlewareKind {
 #[error("middleware `{0}` is not implemented yet; run the agent with `-m ced` (in-agent routing between clients)")]
 pub struct UnsupportedMiddleware(pub &'static str);
 
+/// Why a middleware could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// This build does not have it.
+    #[error(transparent)]
+    Unsupported(#[from] UnsupportedMiddleware),
+    /// The DDS middleware refuses a ROS 2 or Fast DDS setting of the environment (`ROS_STATIC_PEERS`,
+    /// `ROS_DISCOVERY_SERVER`, the profiles file): it names the variable and the value.
+    #[error(transparent)]
+    DdsSettings(#[from] xrce_dds::SettingsError),
+}
+
 impl MiddlewareKind {
     /// Its command-line name.
     pub const fn name(self) -> &'static str {
@@ -400,7 +412,7 @@ impl MiddlewareKind {
     }
 
     /// Builds the middleware, or says why not.
-    pub fn build(self, profiles: Arc<dyn ProfileSource>) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+    pub fn build(self, profiles: Arc<dyn ProfileSource>) -> Result<Box<dyn Middleware + Send>, BuildError> {
         self.build_dds(profiles, ros_graph::RosGraphMode::default(), DdsOptions::default())
     }
 
@@ -410,13 +422,23 @@ impl MiddlewareKind {
         profiles: Arc<dyn ProfileSource>,
         ros_graph: ros_graph::RosGraphMode,
         options: DdsOptions,
-    ) -> Result<Box<dyn Middleware + Send>, UnsupportedMiddleware> {
+    ) -> Result<Box<dyn Middleware + Send>, BuildError> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
             Self::Dds | Self::Rtps => {
                 let engine = options.engine.unwrap_or_default();
                 warn_if_fallback(engine, options.engine.is_some());
-                let config = xrce_dds::BridgeConfig { engine, ..xrce_dds::BridgeConfig::default() };
+                // As a ROS 2 node: the user's Fast DDS profiles and ROS discovery settings, read once at start.
+                if engine == xrce_dds::Engine::FastDds {
+                    xrce_dds::ros_env::load_fast_dds_profiles()?;
+                }
+                let discovery = xrce_dds::ros_env::from_env()?;
+                let config = xrce_dds::BridgeConfig {
+                    engine,
+                    discovery,
+                    shared_memory: options.shared_memory,
+                    ..xrce_dds::BridgeConfig::default()
+                };
                 Ok(Box::new(
                     dds::Dds::with_config(profiles, config)
                         .with_ros_graph(ros_graph)
@@ -453,6 +475,9 @@ pub struct DdsOptions {
     /// Every XRCE participant shares the domain's default DDS participant instead of one DDS participant
     /// per participant name (`--participant-names off`).
     pub share_participants: bool,
+    /// Shared memory beside UDPv4 for the Fast DDS participants (`--dds-shm`); `None`: this build's default
+    /// (on when Fast DDS came from a ROS 2 installation, whose nodes share it).
+    pub shared_memory: Option<bool>,
 }
 
 #[cfg(test)]

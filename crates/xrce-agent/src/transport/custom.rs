@@ -46,7 +46,7 @@ use super::drive::EventLoop;
 use super::WakeFlag;
 use crate::agent::Agent;
 use crate::core::CoreConfig;
-use crate::middleware::{MiddlewareKind, UnsupportedMiddleware};
+use crate::middleware::{BuildError, MiddlewareKind};
 use reader::{Reader, Wake};
 use shell::{EndpointTable, Shell};
 
@@ -221,7 +221,7 @@ pub enum CustomAgentError {
     },
     /// The middleware is not available.
     #[error(transparent)]
-    Middleware(#[from] UnsupportedMiddleware),
+    Middleware(#[from] BuildError),
     /// The transport's `open` failed.
     #[error("custom transport `{name}` could not be opened: {source}")]
     Open {
