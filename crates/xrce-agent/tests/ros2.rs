@@ -82,14 +82,15 @@ impl RosPeer {
         let v = venv();
         let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros2/ros_peer.py");
         let logs = std::env::temp_dir().join("xrce-ros2-logs");
-        let mut child = Command::new(v.join("bin/python"))
+        let mut cmd = Command::new(v.join("bin/python"));
+        netns::ros_node_transports(&mut cmd);
+        let mut child = cmd
             .arg(script)
             .args(["--node", node])
             .args(args)
             .env("LD_LIBRARY_PATH", v.join("lib"))
             .env("AMENT_PREFIX_PATH", &v)
             .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-            .env("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
             .env("ROS_LOG_DIR", logs)
             .env("PYTHONUNBUFFERED", "1")
             .stdout(Stdio::piped())

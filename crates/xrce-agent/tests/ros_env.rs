@@ -21,8 +21,11 @@ use std::time::{Duration, Instant};
 /// Domain 0's discovery multicast port (RTPS: 7400 + 250 × domain).
 const MULTICAST_DISCOVERY_PORT: u16 = 7400;
 
+/// The agent under test: `XRCE_ROS_AGENT` (another build, against another Fast DDS) if set, else this crate's.
 fn agent() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_xrce-agent"));
+    let bin = std::env::var_os("XRCE_ROS_AGENT")
+        .map_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_xrce-agent")), PathBuf::from);
+    let mut c = Command::new(bin);
     // Only what a test sets: none of the runner's own ROS or Fast DDS settings.
     for var in [
         "ROS_AUTOMATIC_DISCOVERY_RANGE",

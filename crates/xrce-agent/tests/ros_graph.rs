@@ -55,12 +55,13 @@ rclpy.shutdown()
 "#;
 
 fn start_probe(venv: &str, secs: u32) -> (Child, mpsc::Receiver<String>) {
-    let mut child = Command::new(format!("{venv}/bin/python"))
+    let mut cmd = Command::new(format!("{venv}/bin/python"));
+    netns::ros_node_transports(&mut cmd);
+    let mut child = cmd
         .args(["-c", PROBE, &secs.to_string()])
         .env("LD_LIBRARY_PATH", format!("{venv}/lib"))
         .env("AMENT_PREFIX_PATH", venv)
         .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-        .env("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
         .stdout(Stdio::piped())
         .spawn()
         .expect("start rclpy");

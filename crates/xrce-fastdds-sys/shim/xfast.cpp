@@ -3,6 +3,7 @@
 // reports failure through its return value, because unwinding into Rust is undefined behaviour.
 #include "compat.hpp"
 
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <map>
@@ -140,10 +141,17 @@ struct KnownReader {
     bool reliable;
     bool transient_local;
 };
+// A remote participant's endpoints arrive in bursts (SEDP), the one a writer waits for possibly last, and a ROS
+// node that has just started keeps announcing endpoints: its discovery counts as under way until none has
+// arrived for this long (on loopback a burst's endpoints come within a few ms of each other).
+constexpr std::chrono::milliseconds ENDPOINTS_SETTLED{100};
+
 struct Discovery : public DiscoveryListener {
+    using Clock = std::chrono::steady_clock;
     std::mutex m;
     std::map<GUID_t, KnownReader> readers;
-    std::set<GuidPrefix_t> awaiting_endpoints;
+    std::set<GuidPrefix_t> awaiting_endpoints;        // no endpoint of theirs yet
+    std::map<GuidPrefix_t, Clock::time_point> latest;  // when their latest endpoint (or themselves) arrived
     std::set<GuidPrefix_t> participants;  // remote ones alive, of other processes
     std::set<GuidPrefix_t> discovered;    // every one alive, the agent's other participants included
     void participant(DomainParticipant* self, const GuidPrefix_t& p, Seen what) override {
@@ -155,20 +163,37 @@ struct Discovery : public DiscoveryListener {
             if (!same_process) {
                 awaiting_endpoints.insert(p);
                 participants.insert(p);
+                latest[p] = Clock::now();
             }
         } else if (what == Seen::removed) {
             awaiting_endpoints.erase(p);
             participants.erase(p);
             discovered.erase(p);
+            latest.erase(p);
         }
+    }
+    void endpoint_of(const GuidPrefix_t& p) {
+        awaiting_endpoints.erase(p);
+        auto it = latest.find(p);
+        if (it != latest.end()) it->second = Clock::now();
+    }
+    // Remote participants whose endpoints are still arriving (none yet, or one within ENDPOINTS_SETTLED).
+    // Called with `m` held.
+    std::set<GuidPrefix_t> unsettled() const {
+        std::set<GuidPrefix_t> out(awaiting_endpoints);
+        const auto now = Clock::now();
+        for (const auto& kv : latest) {
+            if (now - kv.second < ENDPOINTS_SETTLED) out.insert(kv.first);
+        }
+        return out;
     }
     void writer(const GuidPrefix_t& p) override {
         std::lock_guard<std::mutex> g(m);
-        awaiting_endpoints.erase(p);
+        endpoint_of(p);
     }
     void reader(const SeenReader& r, Seen what) override {
         std::lock_guard<std::mutex> g(m);
-        awaiting_endpoints.erase(r.guid.guidPrefix);
+        endpoint_of(r.guid.guidPrefix);
         if (what == Seen::removed) {
             readers.erase(r.guid);
         } else {
@@ -433,31 +458,35 @@ int32_t xf_writer_unmatched_in_discovery(xf_writer* w, xf_participant* oracle) {
     const std::vector<GUID_t> unmatched = unmatched_known_readers(w, oracle);
     xf_participant* mine = w->owner;
     std::lock_guard<std::mutex> g(mine->discovery.m);
+    const std::set<GuidPrefix_t> unsettled = mine->discovery.unsettled();
     int32_t n = 0;
     for (const auto& guid : unmatched) {
         const auto& prefix = guid.guidPrefix;
-        if (mine->discovery.discovered.count(prefix) == 0 || mine->discovery.awaiting_endpoints.count(prefix) != 0) ++n;
+        if (mine->discovery.discovered.count(prefix) == 0 || unsettled.count(prefix) != 0) ++n;
     }
     return n;
     XF_CATCH(-2)
 }
 
 // Remote participants whose discovery with `p` is still under way, so that `p` may be about to learn of
-// readers a new writer should not miss: those `p` has discovered but has no endpoint of yet, and those
-// `oracle` (a participant that has run longer) knows and `p` has not discovered yet.
+// readers a new writer should not miss: those whose endpoints are still arriving at `p` or at `oracle` (a
+// participant that has run longer: what it learns, `p` learns too), and those `oracle` knows and `p` has not
+// discovered yet.
 int32_t xf_participant_in_discovery(xf_participant* p, xf_participant* oracle) {
     XF_TRY
     std::set<GuidPrefix_t> known;
+    std::set<GuidPrefix_t> unsettled;
     if (oracle != p) {
         std::lock_guard<std::mutex> g(oracle->discovery.m);
         known = oracle->discovery.participants;
+        unsettled = oracle->discovery.unsettled();
     }
     std::lock_guard<std::mutex> g(p->discovery.m);
-    int32_t n = static_cast<int32_t>(p->discovery.awaiting_endpoints.size());
+    for (const auto& prefix : p->discovery.unsettled()) unsettled.insert(prefix);
     for (const auto& prefix : known) {
-        if (p->discovery.participants.count(prefix) == 0) ++n;
+        if (p->discovery.participants.count(prefix) == 0) unsettled.insert(prefix);
     }
-    return n;
+    return static_cast<int32_t>(unsettled.size());
     XF_CATCH(-2)
 }
 

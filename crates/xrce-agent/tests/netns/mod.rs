@@ -18,6 +18,17 @@ pub fn require_loopback_namespace() {
     );
 }
 
+/// The transports of the rclpy nodes the ROS 2 tests start (`FASTDDS_BUILTIN_TRANSPORTS`): UDPv4 only, unless
+/// `XRCE_ROS_SHM=1`, which leaves them their distribution's default (shared memory and UDPv4), for an agent
+/// built against the same Fast DDS (its shared memory on), sharing the namespace's private `/dev/shm`.
+pub fn ros_node_transports(cmd: &mut Command) -> &mut Command {
+    if std::env::var("XRCE_ROS_SHM").is_ok_and(|v| v == "1") {
+        cmd.env_remove("FASTDDS_BUILTIN_TRANSPORTS")
+    } else {
+        cmd.env("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
+    }
+}
+
 /// An agent binary (`udp4 -p PORT -v 3`, default middleware: dds), killed when dropped.
 pub struct AgentProcess(Child);
 

@@ -13,7 +13,7 @@ Modes (run `ros_peer.py MODE --help`):
   multi  several subscriptions, publishers and service clients at once (a boot storm's ROS side)
 
 Needs a ROS 2 Jazzy environment (the suite uses a venv: LD_LIBRARY_PATH=$VENV/lib AMENT_PREFIX_PATH=$VENV
-RMW_IMPLEMENTATION=rmw_fastrtps_cpp FASTDDS_BUILTIN_TRANSPORTS=UDPv4) and must run inside a loopback-only
+RMW_IMPLEMENTATION=rmw_fastrtps_cpp, and FASTDDS_BUILTIN_TRANSPORTS=UDPv4 unless XRCE_ROS_SHM=1) and must run inside a loopback-only
 network namespace (../shared/dds-peers/netns.sh).
 """
 

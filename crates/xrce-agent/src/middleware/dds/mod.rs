@@ -608,8 +608,16 @@ impl Dds {
                 "first-contact gate timed out; writing before every known reader matched"
             );
         } else {
-            // How long the writes were held: 0 when the writer had matched every known reader already.
-            tracing::debug!(?entity, "first-contact gate open: every known reader matched");
+            let matched = match self.entities.get(&entity).map(|n| &n.handle) {
+                Some(Handle::Writer(w)) => w.writer.matched_readers(),
+                _ => 0,
+            };
+            tracing::debug!(
+                ?entity,
+                matched,
+                held_ms = now.saturating_duration_since(gate.created).as_millis(),
+                "first-contact gate open: every known reader matched"
+            );
         }
         if let Acks::Pending { depth } = gate.acks {
             if let Some(g) = self.gates.get_mut(&entity) {
