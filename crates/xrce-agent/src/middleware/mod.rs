@@ -460,7 +460,7 @@ fn warn_if_fallback(engine: xrce_dds::Engine, chosen: bool) {
     tracing::warn!(
         "DDS engine: RustDDS (the pure-Rust fallback), because this agent was built without Fast DDS (its headers \
          were not found at build time); RustDDS meets ROS 2 nodes with 1-3 s stalls at first contact. Fix: install \
-         Fast DDS (`sudo apt-get install libfastrtps-dev g++`) or source a ROS 2 Jazzy or Humble environment, then \
+         Fast DDS (`sudo apt-get install libfastrtps-dev g++`) or source a ROS 2 environment (Humble, Jazzy, Kilted), then \
          rebuild (`cargo build --release -p xrce-agent`); `--dds-engine rustdds` silences this"
     );
 }
