@@ -96,7 +96,7 @@ pub struct Config {
 pub enum DdsEngine {
     /// Pure-Rust RustDDS.
     Rustdds,
-    /// Fast DDS 2.x from the system (the `fastdds` feature, default).
+    /// Fast DDS 2.x or 3.x, as found at build time (the `fastdds` feature, default).
     Fastdds,
 }
 

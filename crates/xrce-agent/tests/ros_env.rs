@@ -157,7 +157,9 @@ fn bad_settings_stop_the_agent_naming_the_variable_and_value() {
     let malformed = temp_file("malformed.xml", "<profiles><participant");
     let malformed_env = profiles_env(&malformed);
     let missing_env = profiles_env(Path::new("/nonexistent/profiles.xml"));
-    let mut cases: Vec<(Vec<(&str, &str)>, Vec<&str>)> = vec![
+    // (environment, what the error must say)
+    type Case<'a> = (Vec<(&'a str, &'a str)>, Vec<&'a str>);
+    let mut cases: Vec<Case> = vec![
         (
             vec![("ROS_STATIC_PEERS", "198.18.0.9;no-such-host.invalid")],
             vec!["ROS_STATIC_PEERS", "no-such-host.invalid"],

@@ -1,7 +1,7 @@
 //! The public bridge types and the choice of DDS engine behind them.
 //!
 //! Two engines implement the same API: `rustdds` (pure Rust, `bridge.rs`) and, with the `fastdds` cargo
-//! feature, Fast DDS 2.9 through `xrce-fastdds-sys` (`fast.rs`). The choice is made at run time
+//! feature, Fast DDS 2.x or 3.x through `xrce-fastdds-sys` (`fast.rs`). The choice is made at run time
 //! ([`BridgeConfig::engine`]), so one agent binary carries both and tests can switch with
 //! [`ENGINE_ENV`].
 //!
@@ -28,7 +28,8 @@ pub const ENGINE_ENV: &str = "XRCE_DDS_ENGINE";
 pub enum Engine {
     /// Pure-Rust RustDDS 0.15.1: the fallback of builds without Fast DDS.
     RustDds,
-    /// Fast DDS 2.x from the system (`libfastrtps-dev`; needs the `fastdds` feature): the default where built.
+    /// Fast DDS 2.x or 3.x, where the build found it (a ROS 2 installation or `libfastrtps-dev`; needs the
+    /// `fastdds` feature): the default where built.
     FastDds,
 }
 
