@@ -31,6 +31,7 @@ filter=${1:-}
 [ "$(id -u)" = 0 ] || { echo "two-hosts.sh needs root (network namespaces)" >&2; exit 2; }
 export XRCE_ROS_VENV=${XRCE_ROS_VENV:-$PWD/target/ros2-venv}
 [ -x "$XRCE_ROS_VENV/bin/python" ] || { echo "no venv at $XRCE_ROS_VENV (run .ci/ros2-venv.sh $XRCE_ROS_VENV)" >&2; exit 2; }
+XRCE_ROS_VENV=$(cd "$XRCE_ROS_VENV" && pwd)
 
 # Build outside the namespaces (no DDS participant starts while building); only run inside them.
 if [ "${AGENT:-}" = release ]; then
@@ -66,8 +67,9 @@ link_end() {
     ip -n "$ns" route add 224.0.0.0/4 dev "$dev"
   else
     ip -n "$ns" link set "$dev" multicast off
-    # The flag and the missing route alone stop nothing: a socket that names its interface (IP_MULTICAST_IF, as
-    # Fast DDS's do) still sends multicast through it, and the other end still delivers it. Drop it on the way out.
+    # The flag and the missing route alone do not stop a socket that names its interface (IP_MULTICAST_IF): it
+    # still sends multicast through it, and the other end delivers it (checked with a plain UDP socket; Fast DDS
+    # 2.9 and 2.14 happen not to send then). Dropped on the way out, the link carries none, whoever sends.
     tc -n "$ns" qdisc add dev "$dev" clsact
     tc -n "$ns" filter add dev "$dev" egress bpf da bytecode "$drop_multicast"
     ip -n "$ns" link set "$dev" up
