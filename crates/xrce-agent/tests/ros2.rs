@@ -184,7 +184,9 @@ fn gate_stops_waiting_for_a_reader_gone_without_a_goodbye() {
     let _agent = start_agent(PORT);
     let mut ros = RosPeer::start("ros_doomed_listener", &["sub", "--topic", "gate_gone", "--timeout", "30"]);
     assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
-    std::thread::sleep(Duration::from_secs(1));
+    // Time for the agent's default participant to learn the node's reader, on a loaded machine too (1 s was
+    // short once in 10 runs: the reader was not known yet, and the gate did not wait for it).
+    std::thread::sleep(Duration::from_millis(2500));
     // SIGKILL: no DATA(p)[UD], the agent's default participant keeps the node's reader until its lease ends.
     let _ = ros.stop();
     let (confirmed, held) = first_write_held_ms(PORT, 0x0005_0002, "uros_gate_gone", "gate_gone");

@@ -275,7 +275,8 @@ impl Participant {
             .participant
             .writer(&topic.topic, &to_fast(qos, false, topic.keyed))
             .map_err(create_err("datawriter"))?;
-        Ok(RawWriter { writer, _topic: Arc::clone(&topic.topic), participant: Arc::clone(&self.inner) })
+        let reliable = matches!(qos.reliability, Reliability::Reliable);
+        Ok(RawWriter { writer, _topic: Arc::clone(&topic.topic), participant: Arc::clone(&self.inner), reliable })
     }
 
     pub(crate) fn create_reader_filtered(
@@ -324,12 +325,20 @@ impl Participant {
     }
 }
 
+/// How long a remote participant's endpoints must have stopped arriving before its discovery counts as done
+/// for a reliable writer's first-contact gate: its endpoints come in bursts, and the reader a writer waits
+/// for may come last (a Kilted node's reader came after the gate had opened in 3 of 8 runs, and its first
+/// sample was lost). Best-effort writers do not wait for it: their held samples are replayed in one burst when
+/// the gate opens, which a keep-last reader of depth 10 cannot take beyond 10.
+const ENDPOINTS_SETTLE: Duration = Duration::from_millis(100);
+
 /// A Fast DDS writer of raw samples.
 pub struct RawWriter {
     writer: sys::Writer,
     // Drop order: the writer goes before its topic and participant.
     _topic: Arc<sys::Topic>,
     participant: Arc<ParticipantInner>,
+    reliable: bool,
 }
 
 impl std::fmt::Debug for RawWriter {
@@ -366,8 +375,17 @@ impl RawWriter {
         self.participant.default.upgrade().unwrap_or_else(|| Arc::clone(&self.participant))
     }
 
+    /// How long endpoints must have stopped arriving ([`ENDPOINTS_SETTLE`] for reliable writers).
+    fn settle(&self) -> Duration {
+        if self.reliable {
+            ENDPOINTS_SETTLE
+        } else {
+            Duration::ZERO
+        }
+    }
+
     pub(crate) fn participant_in_discovery(&self) -> usize {
-        self.participant.participant.in_discovery(&self.oracle().participant)
+        self.participant.participant.in_discovery(&self.oracle().participant, self.settle())
     }
 
     pub(crate) fn unmatched_known_readers(&self) -> usize {
@@ -375,7 +393,7 @@ impl RawWriter {
     }
 
     pub(crate) fn unmatched_readers_in_discovery(&self) -> usize {
-        self.writer.unmatched_in_discovery(&self.oracle().participant)
+        self.writer.unmatched_in_discovery(&self.oracle().participant, self.settle())
     }
 
     pub(crate) fn matched_readers(&self) -> usize {

@@ -19,9 +19,9 @@ void xf_writer_delete(void *p, void *w) { (void)p; (void)w; }
 void xf_writer_guid(const void *w, void *out) { (void)w; (void)out; }
 int32_t xf_writer_matched(void *w) { (void)w; return 0; }
 int32_t xf_writer_unmatched_known(void *w, void *o) { (void)w; (void)o; return 0; }
-int32_t xf_writer_unmatched_in_discovery(void *w, void *o) { (void)w; (void)o; return 0; }
+int32_t xf_writer_unmatched_in_discovery(void *w, void *o, uint32_t s) { (void)w; (void)o; (void)s; return 0; }
 int32_t xf_writer_matched_prefix(void *w, const uint8_t *prefix) { (void)w; (void)prefix; return 0; }
-int32_t xf_participant_in_discovery(void *p, void *o) { (void)p; (void)o; return 0; }
+int32_t xf_participant_in_discovery(void *p, void *o, uint32_t s) { (void)p; (void)o; (void)s; return 0; }
 int32_t xf_participant_undiscovered(void *p, void *o) { (void)p; (void)o; return 0; }
 int32_t xf_participant_reannounce_unheard(void *p) { (void)p; return 0; }
 int xf_write(void *w, const uint8_t *b, size_t l, const void *r, void *o) {

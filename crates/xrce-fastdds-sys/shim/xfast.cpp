@@ -142,9 +142,9 @@ struct KnownReader {
     bool transient_local;
 };
 // A remote participant's endpoints arrive in bursts (SEDP), the one a writer waits for possibly last, and a ROS
-// node that has just started keeps announcing endpoints: its discovery counts as under way until none has
-// arrived for this long (on loopback a burst's endpoints come within a few ms of each other).
-constexpr std::chrono::milliseconds ENDPOINTS_SETTLED{100};
+// node that has just started keeps announcing endpoints: with `settle_ms` > 0 its discovery counts as under way
+// until none has arrived for that long (the agent passes 100 ms for reliable writers: on loopback a burst's
+// endpoints come within a few ms of each other); with 0, only until its first endpoint arrived.
 
 struct Discovery : public DiscoveryListener {
     using Clock = std::chrono::steady_clock;
@@ -177,13 +177,14 @@ struct Discovery : public DiscoveryListener {
         auto it = latest.find(p);
         if (it != latest.end()) it->second = Clock::now();
     }
-    // Remote participants whose endpoints are still arriving (none yet, or one within ENDPOINTS_SETTLED).
-    // Called with `m` held.
-    std::set<GuidPrefix_t> unsettled() const {
+    // Remote participants whose endpoints are still arriving (none yet, or one within `settle_ms`). Called
+    // with `m` held.
+    std::set<GuidPrefix_t> unsettled(uint32_t settle_ms) const {
         std::set<GuidPrefix_t> out(awaiting_endpoints);
         const auto now = Clock::now();
+        const auto settle = std::chrono::milliseconds(settle_ms);
         for (const auto& kv : latest) {
-            if (now - kv.second < ENDPOINTS_SETTLED) out.insert(kv.first);
+            if (now - kv.second < settle) out.insert(kv.first);
         }
         return out;
     }
@@ -453,12 +454,12 @@ int32_t xf_writer_unmatched_known(xf_writer* w, xf_participant* oracle) {
 // Of the readers unmatched_known_readers finds, those whose participant the writer's own participant has not
 // discovered yet or has no endpoint of yet: discovery with them is under way, so the writer may still match
 // them (a reader whose participant's endpoints did arrive and that is still unmatched will not match).
-int32_t xf_writer_unmatched_in_discovery(xf_writer* w, xf_participant* oracle) {
+int32_t xf_writer_unmatched_in_discovery(xf_writer* w, xf_participant* oracle, uint32_t settle_ms) {
     XF_TRY
     const std::vector<GUID_t> unmatched = unmatched_known_readers(w, oracle);
     xf_participant* mine = w->owner;
     std::lock_guard<std::mutex> g(mine->discovery.m);
-    const std::set<GuidPrefix_t> unsettled = mine->discovery.unsettled();
+    const std::set<GuidPrefix_t> unsettled = mine->discovery.unsettled(settle_ms);
     int32_t n = 0;
     for (const auto& guid : unmatched) {
         const auto& prefix = guid.guidPrefix;
@@ -472,17 +473,17 @@ int32_t xf_writer_unmatched_in_discovery(xf_writer* w, xf_participant* oracle) {
 // readers a new writer should not miss: those whose endpoints are still arriving at `p` or at `oracle` (a
 // participant that has run longer: what it learns, `p` learns too), and those `oracle` knows and `p` has not
 // discovered yet.
-int32_t xf_participant_in_discovery(xf_participant* p, xf_participant* oracle) {
+int32_t xf_participant_in_discovery(xf_participant* p, xf_participant* oracle, uint32_t settle_ms) {
     XF_TRY
     std::set<GuidPrefix_t> known;
     std::set<GuidPrefix_t> unsettled;
     if (oracle != p) {
         std::lock_guard<std::mutex> g(oracle->discovery.m);
         known = oracle->discovery.participants;
-        unsettled = oracle->discovery.unsettled();
+        unsettled = oracle->discovery.unsettled(settle_ms);
     }
     std::lock_guard<std::mutex> g(p->discovery.m);
-    for (const auto& prefix : p->discovery.unsettled()) unsettled.insert(prefix);
+    for (const auto& prefix : p->discovery.unsettled(settle_ms)) unsettled.insert(prefix);
     for (const auto& prefix : known) {
         if (p->discovery.participants.count(prefix) == 0) unsettled.insert(prefix);
     }

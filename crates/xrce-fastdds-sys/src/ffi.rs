@@ -89,9 +89,11 @@ extern "C" {
     pub(crate) fn xf_writer_guid(w: *const XfWriter, out: *mut Guid);
     pub(crate) fn xf_writer_matched(w: *mut XfWriter) -> i32;
     pub(crate) fn xf_writer_unmatched_known(w: *mut XfWriter, oracle: *mut XfParticipant) -> i32;
-    pub(crate) fn xf_writer_unmatched_in_discovery(w: *mut XfWriter, oracle: *mut XfParticipant) -> i32;
+    pub(crate) fn xf_writer_unmatched_in_discovery(w: *mut XfWriter, oracle: *mut XfParticipant, settle_ms: u32)
+        -> i32;
     pub(crate) fn xf_writer_matched_prefix(w: *mut XfWriter, prefix: *const u8) -> i32;
-    pub(crate) fn xf_participant_in_discovery(p: *mut XfParticipant, oracle: *mut XfParticipant) -> i32;
+    pub(crate) fn xf_participant_in_discovery(p: *mut XfParticipant, oracle: *mut XfParticipant, settle_ms: u32)
+        -> i32;
     pub(crate) fn xf_participant_undiscovered(p: *mut XfParticipant, oracle: *mut XfParticipant) -> i32;
     pub(crate) fn xf_participant_reannounce_unheard(p: *mut XfParticipant) -> i32;
     pub(crate) fn xf_write(

@@ -282,12 +282,14 @@ impl Participant {
     }
 
     /// Remote participants whose discovery with this one is still under way (0 on error): those it has
-    /// discovered but has no endpoint of yet, and those `oracle` (another participant of the process, which
-    /// has run longer; or this one) knows and this one has not discovered yet.
-    pub fn in_discovery(&self, oracle: &Participant) -> usize {
+    /// discovered but has no endpoint of yet, or (with a non-zero `settle`) whose latest endpoint reached it or
+    /// `oracle` less than `settle` ago, and those `oracle` (another participant of the process, which has run
+    /// longer; or this one) knows and this one has not discovered yet.
+    pub fn in_discovery(&self, oracle: &Participant, settle: Duration) -> usize {
         // SAFETY: both participants are alive for the call (held by `self` and `oracle`); the shim locks
         // their discovery tables one after the other.
-        usize::try_from(unsafe { ffi::xf_participant_in_discovery(self.0 .0, oracle.0 .0) }).unwrap_or(0)
+        let n = unsafe { ffi::xf_participant_in_discovery(self.0 .0, oracle.0 .0, millis(settle)) };
+        usize::try_from(n).unwrap_or(0)
     }
 
     /// Participants `oracle` (another participant of the process, which has run longer) has discovered, and
@@ -420,12 +422,13 @@ impl Writer {
     }
 
     /// Of the readers [`Writer::unmatched_known`] counts, those whose participant this writer's participant
-    /// has not discovered, or has no endpoint of, yet (0 on error): discovery with them is under way, so the
-    /// writer may still match them; a reader whose participant's endpoints did arrive will not.
-    pub fn unmatched_in_discovery(&self, oracle: &Participant) -> usize {
+    /// has not discovered, or has no endpoint of yet, or (with a non-zero `settle`) received an endpoint of
+    /// less than `settle` ago (0 on error): discovery with them is under way, so the writer may still match
+    /// them; a reader whose participant's endpoints did arrive will not.
+    pub fn unmatched_in_discovery(&self, oracle: &Participant, settle: Duration) -> usize {
         // SAFETY: live writer, whose participant `self.p` keeps alive; `oracle` keeps its participant alive for
         // the call; the shim locks the matched set and the two discovery tables one after the other.
-        let n = unsafe { ffi::xf_writer_unmatched_in_discovery(self.w, oracle.0 .0) };
+        let n = unsafe { ffi::xf_writer_unmatched_in_discovery(self.w, oracle.0 .0, millis(settle)) };
         usize::try_from(n).unwrap_or(0)
     }
 
