@@ -104,6 +104,9 @@ struct QueueState {
     received: u64,
     /// Per writer GUID: the highest sequence number taken from RustDDS and when it was taken.
     progress: HashMap<[u8; 16], (i64, Instant)>,
+    /// Threads in [`SampleQueue::wait`]: the condition variable is notified only for them (a notification
+    /// is a system call, paid per delivery otherwise).
+    waiting: usize,
 }
 
 /// Writers whose progress a queue remembers; past it, entries not updated for [`PROGRESS_FORGET`] go.
@@ -194,8 +197,8 @@ impl SampleQueue {
         s
     }
 
-    /// Moves up to `max` samples into `out`; returns how many.
-    pub fn take_batch(&self, max: usize, out: &mut Vec<ReceivedSample>) -> usize {
+    /// Moves up to `max` samples into `out` (a `Vec`, a `VecDeque`...); returns how many.
+    pub fn take_batch(&self, max: usize, out: &mut impl Extend<ReceivedSample>) -> usize {
         let mut st = self.shared.lock();
         let n = max.min(st.samples.len());
         out.extend(st.samples.drain(..n));
@@ -217,10 +220,12 @@ impl SampleQueue {
             if now >= deadline {
                 return false;
             }
+            st.waiting += 1;
             st = match self.shared.cond.wait_timeout(st, deadline - now) {
                 Ok((g, _)) => g,
                 Err(p) => p.into_inner().0,
             };
+            st.waiting -= 1;
         }
         true
     }
@@ -286,7 +291,9 @@ impl SampleQueue {
                 st.samples.push_back(s);
                 st.received += 1;
             }
-            self.shared.cond.notify_all();
+            if st.waiting > 0 {
+                self.shared.cond.notify_all();
+            }
             if was_empty && !st.samples.is_empty() {
                 st.waker.clone()
             } else {
@@ -308,6 +315,7 @@ impl QueueShared {
                 waker: None,
                 received: 0,
                 progress: HashMap::new(),
+                waiting: 0,
             }),
             cond: Condvar::new(),
             capacity: capacity.max(1),

@@ -224,6 +224,18 @@ enum Handle {
     Replier(Box<Replier>),
 }
 
+impl Handle {
+    /// The queue the core reads from, for readers, requesters and repliers.
+    fn queue(&self) -> Option<&SampleQueue> {
+        match self {
+            Handle::Reader(r) => Some(r.reader.queue()),
+            Handle::Requester(r) => Some(r.replies()),
+            Handle::Replier(r) => Some(r.requests()),
+            _ => None,
+        }
+    }
+}
+
 struct Node {
     parent: Option<EntityRef>,
     /// [`Spec::digest`] of what the entity was created from (for REUSE).
@@ -237,21 +249,13 @@ struct Node {
 impl Node {
     /// The queue the core reads from, for readers, requesters and repliers.
     fn queue(&self) -> Option<&SampleQueue> {
-        match &self.handle {
-            Handle::Reader(r) => Some(r.reader.queue()),
-            Handle::Requester(r) => Some(r.replies()),
-            Handle::Replier(r) => Some(r.requests()),
-            _ => None,
-        }
+        self.handle.queue()
     }
 
     /// The next sample for the core, refilling the local buffer from the bridge queue in batches.
     fn front(&mut self) -> Option<&ReceivedSample> {
         if self.local.is_empty() {
-            let q = self.queue()?.clone();
-            let mut batch = Vec::with_capacity(TAKE_BATCH);
-            q.take_batch(TAKE_BATCH, &mut batch);
-            self.local.extend(batch);
+            self.handle.queue()?.take_batch(TAKE_BATCH, &mut self.local);
         }
         self.local.front()
     }
