@@ -226,9 +226,10 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
             };
             self.out.push(Transmit { to, data });
         }
-        let wait = block_for(c.poll_timeout(), now);
         dump_sent(hex, &self.out);
         io.send(&mut self.out, &mut self.spent);
+        c.after_send(now);
+        let wait = block_for(c.poll_timeout(), now);
         // Raised on this thread after the poll above (a drained queue resumed): no wake-up will come.
         Ok(if wake.is_raised() { Duration::ZERO } else { wait })
     }
