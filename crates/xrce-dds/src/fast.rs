@@ -330,8 +330,8 @@ impl Participant {
 /// How long a remote participant's endpoints must have stopped arriving before its discovery counts as done
 /// for a reliable writer's first-contact gate: its endpoints come in bursts, and the reader a writer waits
 /// for may come last (a Kilted node's reader came after the gate had opened in 3 of 8 runs, and its first
-/// sample was lost). Best-effort writers do not wait for it: their held samples are replayed in one burst when
-/// the gate opens, which a keep-last reader of depth 10 cannot take beyond 10.
+/// sample was lost). Best-effort writers do not wait for it: while a ROS graph's endpoints keep arriving it
+/// held PX4-like telemetry up to the gate's 500 ms bound (first sample 330–540 ms after STATUS OK).
 const ENDPOINTS_SETTLE: Duration = Duration::from_millis(100);
 
 /// A Fast DDS writer of raw samples.
