@@ -8,7 +8,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::os::fd::{AsRawFd, RawFd};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Barrier};
+use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -148,7 +148,8 @@ const WRITER: &str = "<dds><data_writer><topic><kind>NO_KEY</kind><name>CanTopic
 /// the next; returns what the subscriber got.
 fn pubsub(bus: &MemoryBus, n: u32, sub_mtu: usize) -> Vec<Vec<u8>> {
     let _agent = RunningAgent::on(bus);
-    let reader_ready = Barrier::new(2);
+    // A channel, not a barrier: a subscriber that fails before it is ready must fail the test, not hang it.
+    let (ready_tx, ready_rx) = mpsc::channel::<()>();
     let p = object_id(1, ObjectKind::Participant);
     let t = object_id(1, ObjectKind::Topic);
     std::thread::scope(|scope| {
@@ -171,7 +172,7 @@ fn pubsub(bus: &MemoryBus, n: u32, sub_mtu: usize) -> Vec<Vec<u8>> {
             let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
             sub.buffer_request_data(out, dr, input, Some(&control)).expect("read");
             assert!(sub.run_session_until_confirm_delivery(10_000).expect("run"), "READ_DATA acknowledged");
-            reader_ready.wait();
+            let _ = ready_tx.send(());
             let deadline = Instant::now() + Duration::from_secs(60);
             while sub.callbacks().0.len() < n as usize && Instant::now() < deadline {
                 sub.run_session_until_data(200).expect("run");
@@ -193,7 +194,13 @@ fn pubsub(bus: &MemoryBus, n: u32, sub_mtu: usize) -> Vec<Vec<u8>> {
         ];
         let mut status = [0u8; 4];
         assert!(publ.run_session_until_all_status(10_000, &reqs, &mut status).expect("run"), "{status:?}");
-        reader_ready.wait();
+        if ready_rx.recv_timeout(Duration::from_secs(60)).is_err() {
+            // The subscriber stopped (or stalled) before it was ready: its panic is the test's failure.
+            match subscriber.join() {
+                Err(panic) => std::panic::resume_unwind(panic),
+                Ok(_) => panic!("the subscriber never got ready"),
+            }
+        }
         for i in 0..n {
             publ.buffer_topic(out, dw, &sample(i)).expect("sample fits the stream");
             assert!(publ.run_session_until_confirm_delivery(10_000).expect("run"), "sample {i} acknowledged");
