@@ -13,6 +13,7 @@ pub mod lossy;
 pub mod procstat;
 pub mod proxy;
 pub mod report;
+pub mod ros;
 pub mod sessions;
 pub mod throughput;
 pub mod udp_ceiling;

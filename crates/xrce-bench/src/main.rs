@@ -15,6 +15,7 @@ use xrce_bench::latency::{self, LatencyConfig};
 use xrce_bench::lossy::{LinkConfig, MILLIS};
 use xrce_bench::proxy::{Direction, Proxy, ProxyConfig};
 use xrce_bench::report::{self, Row};
+use xrce_bench::ros::{self, RosConfig};
 use xrce_bench::sessions::{self, SessionsConfig};
 use xrce_bench::throughput::{self, ThroughputConfig};
 use xrce_bench::udp_ceiling::{self, CeilingConfig};
@@ -41,6 +42,57 @@ enum Command {
     LossyProxy(ProxyArgs),
     /// Client footprint: runs scripts/footprint.sh (no_std client sizes).
     Footprint(FootprintArgs),
+    /// A micro-ROS-like node against a ROS 2 node through the agent: publishes stamped samples at a rate
+    /// (latency measured by the ROS node) or receives them (latency measured here); agent CPU per sample.
+    /// The ROS side: crates/xrce-agent/tests/ros2/ros_peer.py bench-sub / bench-pub; the whole matrix:
+    /// scripts/ros2-shm-bench.py.
+    Ros(RosArgs),
+}
+
+#[derive(Args, Debug)]
+struct RosArgs {
+    /// Agent address.
+    #[arg(long, value_parser = parse_addr, default_value = "127.0.0.1:8888")]
+    agent: SocketAddr,
+    /// to-ros: this client publishes; from-ros: it subscribes.
+    #[arg(long, value_enum)]
+    direction: ros::Direction,
+    /// ROS topic (`rt/<topic>` in DDS), std_msgs/msg/UInt8MultiArray.
+    #[arg(long, default_value = "xrce_bench")]
+    topic: String,
+    /// Node (participant) name.
+    #[arg(long, default_value = "xrce_bench")]
+    node: String,
+    /// DDS domain.
+    #[arg(long, default_value_t = 0)]
+    domain: u16,
+    /// Samples per second.
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
+    /// Bytes of `data` per sample (at least 16).
+    #[arg(long, default_value_t = 1024)]
+    payload: usize,
+    /// Measured window: `rate × duration` samples.
+    #[arg(long, default_value = "10s", value_parser = parse_duration)]
+    duration: Duration,
+    /// Shortest warm-up (to-ros).
+    #[arg(long, default_value = "2s", value_parser = parse_duration)]
+    warmup: Duration,
+    /// From-ros: give up this long after the last sample when not all came.
+    #[arg(long, default_value = "3s", value_parser = parse_duration)]
+    idle_timeout: Duration,
+    /// Longest run in all.
+    #[arg(long, default_value = "120s", value_parser = parse_duration)]
+    timeout: Duration,
+    /// The agent's PID: its CPU time per sample.
+    #[arg(long)]
+    agent_pid: Option<u32>,
+    /// Slots of each reliable stream of 512 bytes (default: micro-ROS' 4, or what one sample's fragments need).
+    #[arg(long)]
+    history: Option<usize>,
+    /// JSON line instead of a table.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args, Debug, Clone, Copy)]
@@ -476,6 +528,29 @@ fn proxy_cmd(a: &ProxyArgs) -> Result<(), BenchError> {
     Ok(())
 }
 
+fn ros_cmd(a: &RosArgs) -> Result<(), BenchError> {
+    let count = (a.rate * a.duration.as_secs_f64()).round() as u64;
+    let cfg = RosConfig {
+        agent: a.agent,
+        direction: a.direction,
+        topic: a.topic.clone(),
+        node: a.node.clone(),
+        domain: a.domain,
+        rate: a.rate,
+        payload: a.payload,
+        count,
+        warmup: a.warmup,
+        idle_timeout: a.idle_timeout,
+        timeout: a.timeout,
+        agent_pid: a.agent_pid,
+        history: a.history,
+        key: xrce_bench::client_key(xrce_bench::run_id(), 1),
+    };
+    let r = ros::run(&cfg)?;
+    print(std::slice::from_ref(&r), a.json, None);
+    Ok(())
+}
+
 fn footprint_cmd(a: &FootprintArgs) -> Result<(), BenchError> {
     if !std::path::Path::new(&a.script).exists() {
         return Err(BenchError::Config(format!("{} not found (run from the workspace root)", a.script)));
@@ -497,6 +572,7 @@ fn main() -> ExitCode {
         Command::UdpCeiling(a) => ceiling_cmd(a),
         Command::LossyProxy(a) => proxy_cmd(a),
         Command::Footprint(a) => footprint_cmd(a),
+        Command::Ros(a) => ros_cmd(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -184,3 +184,29 @@ impl Row for CeilingResult {
         ]
     }
 }
+
+impl Row for crate::ros::RosResult {
+    fn headers() -> Vec<&'static str> {
+        vec!["direction", "payload", "rate", "hist", "written", "received", "p50 µs", "p99 µs", "agent µs/sample"]
+    }
+    fn cells(&self) -> Vec<String> {
+        let direction = match self.direction {
+            Some(crate::ros::Direction::ToRos) => "to-ros",
+            Some(crate::ros::Direction::FromRos) => "from-ros",
+            None => "",
+        };
+        let from_ros = self.direction == Some(crate::ros::Direction::FromRos);
+        let lat = |v: f64| if from_ros { format!("{v:.0}") } else { "-".into() };
+        vec![
+            direction.into(),
+            self.payload.to_string(),
+            format!("{:.0}", self.rate),
+            self.history.to_string(),
+            self.written.to_string(),
+            self.received.to_string(),
+            lat(self.latency_us.p50),
+            lat(self.latency_us.p99),
+            self.agent_cpu_us_per_sample.map_or_else(|| "-".into(), |v| format!("{v:.1}")),
+        ]
+    }
+}

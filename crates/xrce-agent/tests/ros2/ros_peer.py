@@ -11,6 +11,12 @@ Modes (run `ros_peer.py MODE --help`):
   call   wait for a SetBool service, call it N times, time each round trip
   graph  poll get_node_names_and_namespaces()/get_topic_names_and_types() until the expected nodes appear
   multi  several subscriptions, publishers and service clients at once (a boot storm's ROS side)
+  bench-sub  latency of stamped std_msgs/UInt8MultiArray samples (xrce-bench ros --direction to-ros)
+  bench-pub  publish stamped std_msgs/UInt8MultiArray samples at a rate (xrce-bench ros --direction from-ros)
+
+The bench modes (scripts/ros2-shm-bench.py runs them) share the layout of xrce-bench's `ros` command: `data`
+starts with the send time (time.time_ns(), u64 little endian) and the sequence number (u64, bit 63 set for
+warm-up samples); they print one "result" line.
 
 Needs a ROS 2 Jazzy environment (the suite uses a venv: LD_LIBRARY_PATH=$VENV/lib AMENT_PREFIX_PATH=$VENV
 RMW_IMPLEMENTATION=rmw_fastrtps_cpp, and FASTDDS_BUILTIN_TRANSPORTS=UDPv4 unless XRCE_ROS_SHM=1) and must run inside a loopback-only
@@ -18,7 +24,9 @@ network namespace (../shared/dds-peers/netns.sh).
 """
 
 import argparse
+import array
 import json
+import struct
 import sys
 import time
 
@@ -26,7 +34,7 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Int32, String
+from std_msgs.msg import Int32, String, UInt8MultiArray
 from std_srvs.srv import SetBool
 
 
@@ -267,6 +275,105 @@ def run_graph(node, args):
     emit("graph", nodes=nodes, topics=topics, complete=complete(), after_ms=(time.monotonic() - t0) * 1e3)
 
 
+WARMUP = 1 << 63
+
+
+def percentiles(values):
+    """Nearest-rank percentiles, as xrce-bench computes them."""
+    values = sorted(values)
+    n = len(values)
+    if n == 0:
+        return {"count": 0}
+
+    def at(p):
+        rank = -(-p * n // 100)
+        return values[min(max(rank, 1), n) - 1]
+
+    return {"count": n, "min": values[0], "p50": at(50), "p90": at(90), "p99": at(99), "max": values[-1],
+            "mean": sum(values) / n}
+
+
+def bench_qos(args):
+    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
+                      history=HistoryPolicy.KEEP_LAST, depth=args.depth)
+
+
+def run_bench_sub(node, args):
+    """Receives stamped samples: the latency of each measured one (send time to the callback), until --count
+    came or nothing came for --idle-timeout after the first."""
+    arrivals = []
+    warmup = [0]
+
+    def on_sample(msg):
+        now = time.time_ns()
+        sent, seq = struct.unpack_from("<QQ", msg.data, 0)
+        if seq & WARMUP:
+            warmup[0] += 1
+        else:
+            arrivals.append((now, sent, seq))
+
+    node.create_subscription(UInt8MultiArray, args.topic, on_sample, bench_qos(args))
+    emit("ready", node=node.get_name(), topic=args.topic)
+    deadline = time.monotonic() + args.timeout
+    last = [None, 0]
+    while rclpy.ok() and time.monotonic() < deadline and len(arrivals) < args.count:
+        rclpy.spin_once(node, timeout_sec=0.05)
+        if len(arrivals) != last[1]:
+            last = [time.monotonic(), len(arrivals)]
+        elif last[0] is not None and time.monotonic() - last[0] > args.idle_timeout:
+            break
+    seen, duplicates, out_of_order, highest, latencies = set(), 0, 0, -1, []
+    for now, sent, seq in arrivals:
+        if seq in seen:
+            duplicates += 1
+            continue
+        seen.add(seq)
+        if seq < highest:
+            out_of_order += 1
+        highest = max(highest, seq)
+        latencies.append((now - sent) / 1e3)
+    window = (arrivals[-1][0] - arrivals[0][0]) / 1e9 if len(arrivals) > 1 else 0.0
+    emit("result", received=len(seen), expected=args.count, warmup=warmup[0], duplicates=duplicates,
+         out_of_order=out_of_order, window_s=window, latency_us=percentiles(latencies))
+
+
+def run_bench_pub(node, args):
+    """Publishes stamped samples of --payload bytes at --rate once a subscription matched: warm-up samples for
+    --warmup seconds, then --count measured ones."""
+    publisher = node.create_publisher(UInt8MultiArray, args.topic, bench_qos(args))
+    emit("ready", node=node.get_name(), topic=args.topic)
+    if not spin_until(node, lambda: publisher.get_subscription_count() >= 1, args.timeout):
+        emit("result", sent=0, error="no subscription matched")
+        return
+    msg = UInt8MultiArray()
+    msg.data = array.array("B", bytes(max(args.payload, 16)))
+    period = 1.0 / args.rate
+
+    def publish_at_rate(count, flag, seconds):
+        sent = 0
+        nxt = time.monotonic()
+        end = nxt + seconds if seconds else None
+        while (count is None or sent < count) and (end is None or time.monotonic() < end):
+            now = time.monotonic()
+            if nxt > now:
+                time.sleep(nxt - now)
+            elif now - nxt > 5 * period:
+                nxt = now
+            nxt += period
+            struct.pack_into("<QQ", msg.data, 0, time.time_ns(), flag | sent)
+            publisher.publish(msg)
+            sent += 1
+        return sent
+
+    warm = publish_at_rate(None, WARMUP, args.warmup)
+    t0 = time.monotonic()
+    sent = publish_at_rate(args.count, 0, None)
+    window = time.monotonic() - t0
+    # Stay a while so that reliable repairs can complete before the writer goes away.
+    spin_until(node, lambda: False, args.linger)
+    emit("result", sent=sent, warmup=warm, window_s=window, achieved_rate=sent / window if window else 0.0)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--node", default="ros_peer", help="node name")
@@ -321,6 +428,23 @@ def main():
     p.add_argument("--timeout", type=float, default=30.0)
     p.add_argument("--linger", type=float, default=1.0)
 
+    p = sub.add_parser("bench-sub", help="latency of stamped UInt8MultiArray samples")
+    p.add_argument("--topic", required=True)
+    p.add_argument("--depth", type=int, default=10)
+    p.add_argument("--count", type=int, required=True, help="measured samples expected")
+    p.add_argument("--idle-timeout", type=float, default=3.0)
+    p.add_argument("--timeout", type=float, default=120.0)
+
+    p = sub.add_parser("bench-pub", help="publish stamped UInt8MultiArray samples at a rate")
+    p.add_argument("--topic", required=True)
+    p.add_argument("--depth", type=int, default=10)
+    p.add_argument("--rate", type=float, required=True, help="samples per second")
+    p.add_argument("--payload", type=int, required=True, help="bytes of data per sample (at least 16)")
+    p.add_argument("--count", type=int, required=True, help="measured samples")
+    p.add_argument("--warmup", type=float, default=2.0, help="seconds of warm-up samples after the match")
+    p.add_argument("--timeout", type=float, default=30.0, help="how long to wait for a subscription")
+    p.add_argument("--linger", type=float, default=1.0)
+
     p = sub.add_parser("graph", help="print the ROS graph")
     p.add_argument("--expect", action="append", default=[], help="node name to wait for (repeatable)")
     p.add_argument("--timeout", type=float, default=10.0)
@@ -330,7 +454,7 @@ def main():
     node = rclpy.create_node(args.node)
     try:
         {"sub": run_sub, "pub": run_pub, "serve": run_serve, "call": run_call, "graph": run_graph,
-         "multi": run_multi}[args.mode](
+         "multi": run_multi, "bench-sub": run_bench_sub, "bench-pub": run_bench_pub}[args.mode](
             node, args
         )
     except KeyboardInterrupt:
