@@ -4,19 +4,22 @@
 For every combination of distribution (the agent built against that distribution's Fast DDS, its rclpy),
 transport (shm: the agent's default --dds-shm on and the node's default transports; udp: --dds-shm off and
 FASTDDS_BUILTIN_TRANSPORTS=UDPv4), direction (to-ros: an XRCE client publishes, the rclpy node measures;
-from-ros: the rclpy node publishes, the XRCE client measures) and load (rate x payload), one run in a fresh
-loopback-only network namespace with its own /dev/shm (../shared/dds-peers/netns.sh): the agent, the rclpy node
-(crates/xrce-agent/tests/ros2/ros_peer.py bench-sub / bench-pub), the micro-ROS-like client (xrce-bench ros) and
-a tcpdump of the UDP datagrams on lo other than the XRCE client's all start from one process inside it.
+from-ros: the rclpy node publishes, the XRCE client measures; ros-to-ros, the control: an rclpy node publishes
+to another, no agent) and load (rate x payload), one run in a fresh loopback-only network namespace with its
+own /dev/shm (../shared/dds-peers/netns.sh): the agent, the rclpy node (crates/xrce-agent/tests/ros2/ros_peer.py
+bench-sub / bench-pub), the micro-ROS-like client (xrce-bench ros) and a tcpdump of the UDP datagrams on lo
+other than the XRCE client's all start from one process inside it.
 
 Each run reports the latency percentiles of the measured samples (send time stamped in the sample,
 CLOCK_REALTIME, to the receiver's callback), the samples lost, the agent's CPU time (utime + stime) per sample
-over the measured window (at least 1000 samples: the CPU time comes in 10 ms ticks), the /dev/shm segments seen mid-run and the DDS datagrams of 1000 bytes or more on lo
-(the user samples, when they go by UDP). Then a table: min / median / max over the runs of every figure.
+over the measured window (at least 1000 samples: the CPU time comes in 10 ms ticks), the /dev/shm segments
+seen mid-run and the DDS datagrams of 1000 bytes or more on lo (the user samples, when they go by UDP). Every
+arrival is kept in run-K/arrivals.txt (seq, send and arrival ns). Then a table: median (min–max) over the
+runs of every figure.
 
 usage (as root, from anywhere):
   scripts/ros2-shm-bench.py [--runs 3] [--distros jazzy,kilted] [--transports shm,udp]
-                            [--directions to-ros,from-ros] [--loads 1000x1024,50x32768] [--seconds 10]
+                            [--directions to-ros,from-ros,ros-to-ros] [--loads 1000x1024,50x32768] [--seconds 10]
 Inputs (defaults relative to the workspace):
   XRCE_ROS_AGENT_JAZZY   target/jazzy/release/xrce-agent   (built with AMENT_PREFIX_PATH=$PWD/target/ros2-venv
                                                              CARGO_TARGET_DIR=target/jazzy cargo build --release
@@ -92,13 +95,16 @@ def inner(cfg):
                                    stdout=subprocess.DEVNULL, stderr=log("tcpdump.log"))
         procs.append(tcpdump)
         time.sleep(0.5)
-        agent = subprocess.Popen([cfg["agent"], "udp4", "-p", str(PORT), "--dds-shm",
-                                  "on" if cfg["transport"] == "shm" else "off"],
-                                 stdout=log("agent.log"), stderr=subprocess.STDOUT)
-        procs.append(agent)
-        time.sleep(1.0)
-        if agent.poll() is not None:
-            raise RuntimeError(f"agent exited with {agent.returncode}")
+        control = cfg["direction"] == "ros-to-ros"
+        agent = None
+        if not control:
+            agent = subprocess.Popen([cfg["agent"], "udp4", "-p", str(PORT), "--dds-shm",
+                                      "on" if cfg["transport"] == "shm" else "off"],
+                                     stdout=log("agent.log"), stderr=subprocess.STDOUT)
+            procs.append(agent)
+            time.sleep(1.0)
+            if agent.poll() is not None:
+                raise RuntimeError(f"agent exited with {agent.returncode}")
         venv = cfg["venv"]
         env = dict(os.environ, LD_LIBRARY_PATH=os.path.join(venv, "lib"), AMENT_PREFIX_PATH=venv,
                    RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1")
@@ -110,53 +116,64 @@ def inner(cfg):
         seconds = max(cfg["seconds"], 1000 / rate)
         count = round(rate * seconds)
         topic = "xrce_bench"
-        node_cmd = [os.path.join(venv, "bin/python"), PEER, "--node", "ros_bench"]
-        bench_cmd = [cfg["bench"], "ros", "--agent", f"127.0.0.1:{PORT}", "--direction", cfg["direction"],
-                     "--topic", topic, "--rate", str(rate), "--payload", str(payload), "--duration", f"{seconds}s",
-                     "--agent-pid", str(agent.pid), "--json"]
-        node_lines, node_ready = [], threading.Event()
-        bench_ready = threading.Event()
+        arrivals = os.path.join(out, "arrivals.txt")
+        depth = ["--depth", str(cfg["ros_depth"])]
+        sub_args = ["bench-sub", "--topic", topic, "--count", str(count), "--dump", arrivals] + depth
+        pub_args = ["bench-pub", "--topic", topic, "--count", str(count), "--rate", str(rate), "--payload",
+                    str(payload)] + depth
 
-        def start_node(extra):
-            p = subprocess.Popen(node_cmd + extra, env=env, stdout=subprocess.PIPE, stderr=log("node.log"),
-                                 text=True)
+        def start_node(name, extra):
+            p = subprocess.Popen([os.path.join(venv, "bin/python"), PEER, "--node", name] + extra, env=env,
+                                 stdout=subprocess.PIPE, stderr=log(f"{name}.log"), text=True)
             procs.append(p)
-            threading.Thread(target=read_json_lines, args=(p.stdout, node_lines, node_ready), daemon=True).start()
-            return p
+            lines, ready = [], threading.Event()
+            threading.Thread(target=read_json_lines, args=(p.stdout, lines, ready), daemon=True).start()
+            wait_ready(p, ready, 30, f"rclpy node {name}")
+            return p, lines
 
         def start_bench():
-            p = subprocess.Popen(bench_cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            p = subprocess.Popen([cfg["bench"], "ros", "--agent", f"127.0.0.1:{PORT}", "--direction",
+                                  cfg["direction"], "--topic", topic, "--rate", str(rate), "--payload", str(payload),
+                                  "--duration", f"{seconds}s", "--agent-pid", str(agent.pid), "--json", "--dump",
+                                  arrivals], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             procs.append(p)
             err = log("bench.log")
+            ready = threading.Event()
 
             def pump():
                 for line in p.stderr:
                     err.write(line)
                     err.flush()
                     if "ready" in line:
-                        bench_ready.set()
+                        ready.set()
 
             threading.Thread(target=pump, daemon=True).start()
+            wait_ready(p, ready, 30, "xrce-bench")
             return p
 
+        bench = None
         if cfg["direction"] == "to-ros":
-            node = start_node(["bench-sub", "--topic", topic, "--count", str(count)])
-            wait_ready(node, node_ready, 30, "rclpy node")
+            node, node_lines = start_node("ros_bench", sub_args)
             bench = start_bench()
-            wait_ready(bench, bench_ready, 30, "xrce-bench")
+        elif cfg["direction"] == "from-ros":
+            bench = start_bench()
+            node, node_lines = start_node("ros_bench", pub_args)
         else:
-            bench = start_bench()
-            wait_ready(bench, bench_ready, 30, "xrce-bench")
-            node = start_node(["bench-pub", "--topic", topic, "--count", str(count), "--rate", str(rate),
-                               "--payload", str(payload)])
-            wait_ready(node, node_ready, 30, "rclpy node")
+            # The control: rclpy to rclpy, no agent (the DDS hop alone, in the same Python).
+            sub, sub_lines = start_node("ros_bench_sub", sub_args)
+            node, node_lines = start_node("ros_bench_pub", pub_args)
         # Mid-run (warm-up ~2 s, then the measured window): which shared-memory segments exist.
         time.sleep(3.0 + seconds / 2)
         shm = sorted(os.listdir("/dev/shm"))
-        bench_out, _ = bench.communicate(timeout=seconds + 120)
-        node.wait(timeout=60)
-        bench_result = json.loads(bench_out.strip().splitlines()[-1])
-        node_result = next((x for x in reversed(node_lines) if x.get("event") == "result"), {})
+        result = lambda lines: next((x for x in reversed(lines) if x.get("event") == "result"), {})  # noqa: E731
+        if bench is not None:
+            bench_out, _ = bench.communicate(timeout=seconds + 120)
+            bench_result = json.loads(bench_out.strip().splitlines()[-1])
+        node.wait(timeout=seconds + 60)
+        node_result = result(node_lines)
+        if control:
+            sub.wait(timeout=60)
+            bench_result = result(sub_lines)
     finally:
         for p in reversed(procs):
             if p.poll() is None:
@@ -175,6 +192,7 @@ def inner(cfg):
         received = node_result.get("received", 0)
         latency = node_result.get("latency_us", {})
     else:
+        # from-ros: the XRCE client received; ros-to-ros: the subscribing node (its result stands in).
         samples, warmup = node_result.get("sent", 0), node_result.get("warmup", 0)
         received = bench_result.get("received", 0)
         latency = bench_result.get("latency_us", {})
@@ -212,7 +230,7 @@ def table(results):
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for (distro, rate, payload, direction, transport), rs in rows.items():
         load = f"{rate:g} Hz × {payload // 1024} KiB" if payload % 1024 == 0 else f"{rate:g} Hz × {payload} B"
-        arrow = "XRCE→ROS" if direction == "to-ros" else "ROS→XRCE"
+        arrow = {"to-ros": "XRCE→ROS", "from-ros": "ROS→XRCE", "ros-to-ros": "ROS→ROS (no agent)"}[direction]
         lost = sum(r["lost"] for r in rs)
         sent = sum(r["sent"] for r in rs)
         # The capture spans the warm-up too.
@@ -261,6 +279,7 @@ def outer(args):
                             cfg = {"distro": distro, "agent": agent, "venv": venv, "bench": bench,
                                    "transport": transport, "direction": direction, "rate": rate,
                                    "payload": payload, "seconds": args.seconds, "run": run,
+                                   "ros_depth": args.ros_depth,
                                    "dir": os.path.join(out, f"run-{k:03d}")}
                             subprocess.run(["ip", "netns", "del", ns], stderr=subprocess.DEVNULL)
                             p = subprocess.run([netns, ns, sys.executable, os.path.abspath(__file__), "--inner",
@@ -289,9 +308,12 @@ def main():
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--distros", default="jazzy")
     parser.add_argument("--transports", default="shm,udp")
-    parser.add_argument("--directions", default="to-ros,from-ros")
+    parser.add_argument("--directions", default="to-ros,from-ros,ros-to-ros",
+                        help="to-ros, from-ros, and ros-to-ros: rclpy to rclpy without the agent (the control)")
     parser.add_argument("--loads", default="1000x1024,50x32768", help="RATExPAYLOAD, comma separated")
     parser.add_argument("--seconds", type=float, default=10.0, help="measured window of each run")
+    parser.add_argument("--ros-depth", type=int, default=10,
+                        help="history depth of the rclpy endpoints (keep last; 10 is rclpy's default)")
     parser.add_argument("--out", default=os.path.join(ROOT, "target/ros2-shm-bench"))
     parser.add_argument("--table", metavar="RESULTS_JSONL", help="only print the table of a results file")
     parser.add_argument("--inner", help=argparse.SUPPRESS)

@@ -90,6 +90,9 @@ struct RosArgs {
     /// Slots of each reliable stream of 512 bytes (default: micro-ROS' 4, or what one sample's fragments need).
     #[arg(long)]
     history: Option<usize>,
+    /// From-ros: write every measured arrival to this file (`seq sent_ns arrival_ns` a line).
+    #[arg(long)]
+    dump: Option<std::path::PathBuf>,
     /// JSON line instead of a table.
     #[arg(long)]
     json: bool,
@@ -545,6 +548,7 @@ fn ros_cmd(a: &RosArgs) -> Result<(), BenchError> {
         agent_pid: a.agent_pid,
         history: a.history,
         key: xrce_bench::client_key(xrce_bench::run_id(), 1),
+        dump: a.dump.clone(),
     };
     let r = ros::run(&cfg)?;
     print(std::slice::from_ref(&r), a.json, None);

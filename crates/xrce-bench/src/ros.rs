@@ -138,6 +138,8 @@ pub struct RosConfig {
     pub history: Option<usize>,
     /// Client key.
     pub key: u32,
+    /// From-ros: write every measured arrival to this file, `seq sent_ns arrival_ns` a line.
+    pub dump: Option<std::path::PathBuf>,
 }
 
 /// What one side measured.
@@ -177,6 +179,14 @@ pub struct RosResult {
     pub agent_cpu_s: Option<f64>,
     /// Agent CPU time per sample of the window, µs.
     pub agent_cpu_us_per_sample: Option<f64>,
+    /// To-ros: the longest write (into the stream and acknowledged by the agent), ms.
+    pub max_write_ms: f64,
+    /// From-ros: the longest time between two measured arrivals, ms, and the sequence number after it.
+    pub max_arrival_gap_ms: f64,
+    /// From-ros: the sequence number that ended [`RosResult::max_arrival_gap_ms`].
+    pub max_arrival_gap_seq: u64,
+    /// From-ros: how much longer than asked the longest wait for input took (this process stalled), ms.
+    pub max_loop_overrun_ms: f64,
 }
 
 /// micro-ROS' defaults: 4 slots of the UDP transport's 512-byte MTU per reliable stream.
@@ -316,7 +326,10 @@ pub fn run(cfg: &RosConfig) -> Result<RosResult, BenchError> {
             for seq in 0..cfg.count {
                 pace(&mut next, period);
                 stamp(&mut sample, Stamp { sent_ns: wall_ns(), seq });
-                match write(&mut session, out, writer, &sample)? {
+                let t = Instant::now();
+                let w = write(&mut session, out, writer, &sample)?;
+                result.max_write_ms = result.max_write_ms.max(t.elapsed().as_secs_f64() * 1e3);
+                match w {
                     Written::Confirmed => {}
                     Written::Unconfirmed => result.unconfirmed += 1,
                     Written::Dropped => result.dropped += 1,
@@ -348,7 +361,10 @@ pub fn run(cfg: &RosConfig) -> Result<RosResult, BenchError> {
             eprintln!("xrce-bench ros: ready");
             let started = Instant::now();
             loop {
+                let t = Instant::now();
                 session.run_session_timeout(20)?;
+                let overrun = t.elapsed().as_secs_f64() * 1e3 - 20.0;
+                result.max_loop_overrun_ms = result.max_loop_overrun_ms.max(overrun);
                 let rx = session.callbacks();
                 let distinct = rx.arrivals.len() as u64;
                 if distinct >= cfg.count {
@@ -369,7 +385,16 @@ pub fn run(cfg: &RosConfig) -> Result<RosResult, BenchError> {
             let mut seen = std::collections::HashSet::new();
             let mut highest = None;
             let mut latencies = Vec::with_capacity(rx.arrivals.len());
+            let mut previous = None;
             for &(at, s) in &rx.arrivals {
+                if let Some(p) = previous {
+                    let gap = at.saturating_sub(p) as f64 / 1e6;
+                    if gap > result.max_arrival_gap_ms {
+                        result.max_arrival_gap_ms = gap;
+                        result.max_arrival_gap_seq = s.seq;
+                    }
+                }
+                previous = Some(at);
                 if !seen.insert(s.seq) {
                     result.duplicates += 1;
                     continue;
@@ -379,6 +404,14 @@ pub fn run(cfg: &RosConfig) -> Result<RosResult, BenchError> {
                 }
                 highest = highest.max(Some(s.seq));
                 latencies.push(at.saturating_sub(s.sent_ns) as f64 / 1e3);
+            }
+            if let Some(path) = &cfg.dump {
+                use std::io::Write as _;
+                let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+                for &(at, s) in &rx.arrivals {
+                    writeln!(f, "{} {} {}", s.seq, s.sent_ns, at)?;
+                }
+                f.flush()?;
             }
             result.received = seen.len() as u64;
             result.latency_us = Percentiles::of(&mut latencies);

@@ -333,8 +333,23 @@ def run_bench_sub(node, args):
         highest = max(highest, seq)
         latencies.append((now - sent) / 1e3)
     window = (arrivals[-1][0] - arrivals[0][0]) / 1e9 if len(arrivals) > 1 else 0.0
+    # Which measured samples never came, as [first, last] runs (the first 20), and the longest silence.
+    missing = []
+    for seq in range(args.count):
+        if seq not in seen:
+            if missing and missing[-1][1] == seq - 1:
+                missing[-1][1] = seq
+            else:
+                missing.append([seq, seq])
+    gaps = [(b[0] - a[0], b[2]) for a, b in zip(arrivals, arrivals[1:])]
+    gap_ns, gap_seq = max(gaps) if gaps else (0, 0)
+    if args.dump:
+        with open(args.dump, "w") as f:
+            f.writelines(f"{seq} {sent} {now}\n" for now, sent, seq in arrivals)
     emit("result", received=len(seen), expected=args.count, warmup=warmup[0], duplicates=duplicates,
-         out_of_order=out_of_order, window_s=window, latency_us=percentiles(latencies))
+         out_of_order=out_of_order, window_s=window, latency_us=percentiles(latencies),
+         missing_runs=len(missing), missing=missing[:20], max_arrival_gap_ms=gap_ns / 1e6,
+         max_arrival_gap_seq=gap_seq)
 
 
 def run_bench_pub(node, args):
@@ -434,6 +449,7 @@ def main():
     p.add_argument("--count", type=int, required=True, help="measured samples expected")
     p.add_argument("--idle-timeout", type=float, default=3.0)
     p.add_argument("--timeout", type=float, default=120.0)
+    p.add_argument("--dump", help="write every measured arrival to this file (seq sent_ns arrival_ns a line)")
 
     p = sub.add_parser("bench-pub", help="publish stamped UInt8MultiArray samples at a rate")
     p.add_argument("--topic", required=True)
