@@ -20,14 +20,12 @@ runs of every figure.
 usage (as root, from anywhere):
   scripts/ros2-shm-bench.py [--runs 3] [--distros jazzy,kilted] [--transports shm,udp]
                             [--directions to-ros,from-ros,ros-to-ros] [--loads 1000x1024,50x32768] [--seconds 10]
-Inputs (defaults relative to the workspace):
-  XRCE_ROS_AGENT_JAZZY   target/jazzy/release/xrce-agent   (built with AMENT_PREFIX_PATH=$PWD/target/ros2-venv
-                                                             CARGO_TARGET_DIR=target/jazzy cargo build --release
-                                                             -p xrce-agent)
-  XRCE_ROS_VENV_JAZZY    target/ros2-venv                  (.ci/ros2-venv.sh target/ros2-venv jazzy)
-  XRCE_ROS_AGENT_KILTED  target/kilted/release/xrce-agent  (likewise with target/ros2-venv-kilted)
-  XRCE_ROS_VENV_KILTED   target/ros2-venv-kilted           (.ci/ros2-venv.sh target/ros2-venv-kilted kilted)
-  XRCE_BENCH             target/release/xrce-bench         (built here: cargo build --release -p xrce-bench)
+Inputs (as scripts/ros2-first-contact.sh DISTRO=... makes them; paths relative to the workspace):
+  XRCE_ROS_VENV_JAZZY    default: .ci/ros2-venv.sh target/ros2-venv jazzy (made when missing)
+  XRCE_ROS_AGENT_JAZZY   default: built here with AMENT_PREFIX_PATH=<that venv> CARGO_TARGET_DIR=target/jazzy
+                         cargo build --release -p xrce-agent
+  XRCE_ROS_VENV_KILTED, XRCE_ROS_AGENT_KILTED   likewise (target/ros2-venv-kilted, target/kilted)
+  XRCE_BENCH             default: target/release/xrce-bench, built here (cargo build --release -p xrce-bench)
 Output: target/ros2-shm-bench/results.jsonl (one line per run), each run's logs beside it, the table on stdout.
 """
 
@@ -49,11 +47,21 @@ PORT = 8888
 BIG = 1000
 
 
-def paths(distro):
+def setup(distro):
+    """The agent built against `distro`'s Fast DDS and the venv of its rclpy, as scripts/ros2-first-contact.sh
+    makes them (the venv by .ci/ros2-venv.sh when missing, the agent built here), unless given."""
     d = distro.upper()
-    agent = os.environ.get(f"XRCE_ROS_AGENT_{d}", os.path.join(ROOT, f"target/{distro}/release/xrce-agent"))
-    venv_default = "target/ros2-venv" if distro == "jazzy" else f"target/ros2-venv-{distro}"
-    venv = os.environ.get(f"XRCE_ROS_VENV_{d}", os.path.join(ROOT, venv_default))
+    venv = os.environ.get(f"XRCE_ROS_VENV_{d}")
+    if not venv:
+        out = "target/ros2-venv" if distro == "jazzy" else f"target/ros2-venv-{distro}"
+        venv = subprocess.run([os.path.join(ROOT, ".ci/ros2-venv.sh"), out, distro], cwd=ROOT, check=True,
+                              stdout=subprocess.PIPE, text=True).stdout.strip().splitlines()[-1]
+    venv = os.path.abspath(os.path.join(ROOT, venv))
+    agent = os.environ.get(f"XRCE_ROS_AGENT_{d}")
+    if not agent:
+        subprocess.run(["cargo", "build", "-q", "--release", "-p", "xrce-agent"], cwd=ROOT, check=True,
+                       env=dict(os.environ, AMENT_PREFIX_PATH=venv, CARGO_TARGET_DIR=f"target/{distro}"))
+        agent = os.path.join(ROOT, f"target/{distro}/release/xrce-agent")
     return agent, venv
 
 
@@ -222,23 +230,40 @@ def fmt(values, scale=1.0, digits=0):
 
 
 def table(results):
-    rows = {}
+    """Two Markdown tables: the figures with the transports side by side (median (min–max) over the runs), then
+    the evidence of the transport each run used."""
+    transports = list(dict.fromkeys(r["transport"] for r in results))
+    rows, evidence = {}, {}
     for r in results:
-        rows.setdefault((r["distro"], r["rate"], r["payload"], r["direction"], r["transport"]), []).append(r)
-    lines = ["| distro | load | direction | transport | runs | p50 latency, ms | p99 latency, ms | agent CPU, µs/sample"
-             " | lost | UDP datagrams ≥ 1000 B on lo per sample | /dev/shm segments |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for (distro, rate, payload, direction, transport), rs in rows.items():
+        rows.setdefault((r["distro"], r["rate"], r["payload"], r["direction"]), {}).setdefault(
+            r["transport"], []).append(r)
+        evidence.setdefault((r["distro"], r["direction"] == "ros-to-ros", r["transport"]), []).append(r)
+    names = "/".join(t.upper() for t in transports)
+    head = ["distro", "load", "direction", "runs"] + [f"p50, ms ({t.upper()})" for t in transports] + \
+        [f"p99, ms ({t.upper()})" for t in transports] + [f"agent CPU, µs/sample ({t.upper()})" for t in transports] + \
+        [f"lost ({names})"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for (distro, rate, payload, direction), by in rows.items():
         load = f"{rate:g} Hz × {payload // 1024} KiB" if payload % 1024 == 0 else f"{rate:g} Hz × {payload} B"
-        arrow = {"to-ros": "XRCE→ROS", "from-ros": "ROS→XRCE", "ros-to-ros": "ROS→ROS (no agent)"}[direction]
-        lost = sum(r["lost"] for r in rs)
-        sent = sum(r["sent"] for r in rs)
+        arrow = {"to-ros": "XRCE→ROS", "from-ros": "ROS→XRCE", "ros-to-ros": "ROS→ROS, no agent"}[direction]
+        runs = "/".join(str(len(by.get(t, []))) for t in transports)
+        if len(set(runs.split("/"))) == 1:
+            runs = runs.split("/")[0]
+        cells = [distro, load, arrow, runs]
+        cells += [fmt([r["p50_us"] for r in by.get(t, [])], 1e-3, 2) for t in transports]
+        cells += [fmt([r["p99_us"] for r in by.get(t, [])], 1e-3, 2) for t in transports]
+        cells += [fmt([r["agent_cpu_us_per_sample"] for r in by.get(t, [])]) for t in transports]
+        sent = [sum(r["sent"] for r in by.get(t, [])) for t in transports]
+        lost = " / ".join(f"{sum(r['lost'] for r in by.get(t, []))}" for t in transports)
+        cells.append(f"{lost} of {sent[0]}" if len(set(sent)) == 1 else f"{lost} of {' / '.join(map(str, sent))}")
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "| distro | runs | transport | UDP datagrams ≥ 1000 B on lo per sample (warm-up included) | "
+              "/dev/shm segments mid-run |", "|---|---|---|---|---|"]
+    for (distro, control, transport), rs in evidence.items():
+        what = f"{transport.upper()}" + (", no agent" if control else "")
         # The capture spans the warm-up too.
         dgrams = fmt([r["udp_datagrams_ge_1000"] / max(r["sent"] + r["warmup"], 1) for r in rs], digits=2)
-        segs = fmt([len(r["shm_segments"]) for r in rs])
-        lines.append(f"| {distro} | {load} | {arrow} | {transport} | {len(rs)} | {fmt([r['p50_us'] for r in rs], 1e-3, 2)}"
-                     f" | {fmt([r['p99_us'] for r in rs], 1e-3, 2)} | {fmt([r['agent_cpu_us_per_sample'] for r in rs], digits=0)}"
-                     f" | {lost} of {sent} | {dgrams} | {segs} |")
+        lines.append(f"| {distro} | {len(rs)} | {what} | {dgrams} | {fmt([len(r['shm_segments']) for r in rs])} |")
     return "\n".join(lines)
 
 
@@ -255,11 +280,13 @@ def outer(args):
         bench = os.path.join(target, "release/xrce-bench")
     setups = {}
     for distro in args.distros.split(","):
-        agent, venv = paths(distro)
+        agent, venv = setup(distro)
         if not os.access(agent, os.X_OK):
-            sys.exit(f"no agent for {distro} at {agent} (see --help)")
+            sys.exit(f"no agent for {distro} at {agent}")
         if not os.access(os.path.join(venv, "bin/python"), os.X_OK):
-            sys.exit(f"no venv for {distro} at {venv} (.ci/ros2-venv.sh {venv} {distro})")
+            sys.exit(f"no venv for {distro} at {venv}")
+        version = subprocess.run([agent, "--version"], capture_output=True, text=True).stdout.strip()
+        print(f"{distro}: {version}; rclpy from {venv}", file=sys.stderr)
         setups[distro] = (agent, venv)
     loads = [tuple(int(x) for x in load.split("x")) for load in args.loads.split(",")]
     out = os.path.abspath(args.out)
