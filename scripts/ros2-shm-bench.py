@@ -206,7 +206,8 @@ def inner(cfg):
         latency = bench_result.get("latency_us", {})
     return {
         "distro": cfg["distro"], "transport": cfg["transport"], "direction": cfg["direction"], "rate": rate,
-        "payload": payload, "run": cfg["run"], "seconds": seconds, "sent": samples, "warmup": warmup, "received": received,
+        "payload": payload, "run": cfg["run"], "seconds": seconds, "sent": samples, "warmup": warmup,
+        "received": received,
         "lost": max(0, samples - received),
         "p50_us": latency.get("p50"), "p99_us": latency.get("p99"), "max_us": latency.get("max"),
         "agent_cpu_us_per_sample": bench_result.get("agent_cpu_us_per_sample"),
@@ -239,9 +240,9 @@ def table(results):
             r["transport"], []).append(r)
         evidence.setdefault((r["distro"], r["direction"] == "ros-to-ros", r["transport"]), []).append(r)
     names = "/".join(t.upper() for t in transports)
-    head = ["distro", "load", "direction", "runs"] + [f"p50, ms ({t.upper()})" for t in transports] + \
-        [f"p99, ms ({t.upper()})" for t in transports] + [f"agent CPU, µs/sample ({t.upper()})" for t in transports] + \
-        [f"lost ({names})"]
+    head = ["distro", "load", "direction", "runs"]
+    head += [f"p50, ms ({t.upper()})" for t in transports] + [f"p99, ms ({t.upper()})" for t in transports]
+    head += [f"agent CPU, µs/sample ({t.upper()})" for t in transports] + [f"lost ({names})"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for (distro, rate, payload, direction), by in rows.items():
         load = f"{rate:g} Hz × {payload // 1024} KiB" if payload % 1024 == 0 else f"{rate:g} Hz × {payload} B"

@@ -185,8 +185,6 @@ pub struct RosResult {
     pub max_arrival_gap_ms: f64,
     /// From-ros: the sequence number that ended [`RosResult::max_arrival_gap_ms`].
     pub max_arrival_gap_seq: u64,
-    /// From-ros: how much longer than asked the longest wait for input took (this process stalled), ms.
-    pub max_loop_overrun_ms: f64,
 }
 
 /// micro-ROS' defaults: 4 slots of the UDP transport's 512-byte MTU per reliable stream.
@@ -361,10 +359,7 @@ pub fn run(cfg: &RosConfig) -> Result<RosResult, BenchError> {
             eprintln!("xrce-bench ros: ready");
             let started = Instant::now();
             loop {
-                let t = Instant::now();
                 session.run_session_timeout(20)?;
-                let overrun = t.elapsed().as_secs_f64() * 1e3 - 20.0;
-                result.max_loop_overrun_ms = result.max_loop_overrun_ms.max(overrun);
                 let rx = session.callbacks();
                 let distinct = rx.arrivals.len() as u64;
                 if distinct >= cfg.count {
