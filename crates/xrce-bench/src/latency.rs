@@ -31,6 +31,8 @@ pub struct LatencyConfig {
     pub history: usize,
     /// Longest wait for one echo before counting it lost.
     pub timeout: Duration,
+    /// Participants named `xrce_bench_ping` and `xrce_bench_echo` (else unnamed).
+    pub named: bool,
     /// Run id.
     pub run: u32,
 }
@@ -47,6 +49,7 @@ impl LatencyConfig {
             mtu: 512,
             history: 8,
             timeout: Duration::from_millis(500),
+            named: false,
             run: crate::run_id(),
         }
     }
@@ -109,6 +112,7 @@ fn setup<'a, D: OnData>(
     bufs: (&'a mut [u8], &'a mut [u8], &'a mut [u8]),
     write: &str,
     read: &str,
+    name: &str,
     h: &mut Handler<D>,
 ) -> Result<Streams, BenchError> {
     let (rel_out, be_out, rel_in) = bufs;
@@ -117,8 +121,8 @@ fn setup<'a, D: OnData>(
     let be = c.core.create_output_best_effort_stream(be_out)?;
     let in_rel = c.core.create_input_reliable_stream(rel_in, cfg.history)?;
     let in_be = c.core.create_input_best_effort_stream()?;
-    let ep =
-        Endpoints { write: Some(write), read: Some(read), reliable: cfg.reliable, depth: 0, participant_name: None };
+    let participant_name = cfg.named.then_some(name);
+    let ep = Endpoints { write: Some(write), read: Some(read), reliable: cfg.reliable, depth: 0, participant_name };
     let reqs = buffer_endpoints(&mut c.core, rel, &ep)?;
     c.wait_statuses(h, &reqs, Duration::from_secs(5))?;
     let s = if cfg.reliable {
@@ -142,7 +146,7 @@ fn echo(
         (vec![0u8; cfg.mtu * cfg.history], vec![0u8; cfg.mtu], vec![0u8; cfg.mtu * cfg.history]);
     let mut c = Client::new(cfg.agent, client_key(cfg.run, 0x2001), cfg.mtu)?;
     let mut h = Handler::new(Echo { stream: StreamId::NONE, echoed: 0 });
-    match setup(&mut c, cfg, (&mut a, &mut b, &mut i), pong, ping, &mut h) {
+    match setup(&mut c, cfg, (&mut a, &mut b, &mut i), pong, ping, "xrce_bench_echo", &mut h) {
         Ok(s) => {
             h.data.stream = s.data_out;
             let _ = ready.send(Ok(()));
@@ -197,7 +201,7 @@ fn pinger(
         (vec![0u8; cfg.mtu * cfg.history], vec![0u8; cfg.mtu], vec![0u8; cfg.mtu * cfg.history]);
     let mut c = Client::new(cfg.agent, client_key(cfg.run, 0x2000), cfg.mtu)?;
     let mut h = Handler::new(Pong::default());
-    let streams = setup(&mut c, cfg, (&mut a, &mut b, &mut i), ping, pong, &mut h)?;
+    let streams = setup(&mut c, cfg, (&mut a, &mut b, &mut i), ping, pong, "xrce_bench_ping", &mut h)?;
     let mut sample = vec![0u8; cfg.payload];
     let mut rtts = Vec::with_capacity(cfg.samples);
     let mut lost = 0;

@@ -200,6 +200,10 @@ struct LatencyArgs {
     /// Longest wait for one echo.
     #[arg(long, default_value = "500ms", value_parser = parse_duration)]
     timeout: Duration,
+    /// Name the two clients' participants (`xrce_bench_ping`, `xrce_bench_echo`), as micro-ROS names its
+    /// nodes: an agent that makes a DDS participant per name then carries each hop between two participants.
+    #[arg(long)]
+    named: bool,
     /// Repetitions (the median run by p50 is marked).
     #[arg(long, default_value_t = 1)]
     runs: usize,
@@ -442,6 +446,7 @@ fn latency_cmd(a: &LatencyArgs) -> Result<(), BenchError> {
         cfg.mtu = a.mtu;
         cfg.history = a.history;
         cfg.timeout = a.timeout;
+        cfg.named = a.named;
         let pb = bar(a.samples >= 5_000, format!("latency run {}", run + 1));
         let r = latency::run(&cfg, &set(&pb));
         pb.finish_and_clear();

@@ -408,6 +408,21 @@ impl RawReader {
     pub fn guid(&self) -> [u8; 16] {
         each!(self, r => r.guid())
     }
+
+    /// Queues `body` now as the next sample of `writer`, a writer of this process that will publish it
+    /// shortly and that this reader receives from in order and without loss (reliable writer and reader,
+    /// matched, the reader's DDS history KEEP_ALL): the DDS engine's own copy, when the writer publishes it,
+    /// is dropped. The agent uses it to hand a sample from one client to another before the DDS write, which
+    /// it makes once its messages are sent. False (nothing queued) on RustDDS, for readers with a filter, and
+    /// when the queue is paused or full: the sample then arrives through DDS as usual. The queued sample's
+    /// sequence number is -1 (not known before the write).
+    pub fn deliver_ahead(&self, writer: &[u8; 16], body: &[u8]) -> bool {
+        match self {
+            Self::Rust(_) => false,
+            #[cfg(feature = "fastdds")]
+            Self::Fast(r) => r.deliver_ahead(writer, body),
+        }
+    }
 }
 
 #[cfg(test)]

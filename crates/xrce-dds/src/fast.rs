@@ -11,6 +11,7 @@
 //! the reader's bounded [`SampleQueue`]; when the queue is full, taking stops (samples wait in Fast DDS'
 //! history, whose reliable flow control then holds the writer back) and the agent's draining resumes it.
 
+use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock, Weak};
 use std::time::Duration;
 
@@ -308,7 +309,8 @@ impl Participant {
             }
         });
         let queue = SampleQueue::new_detached(qos.queue_capacity(), resume);
-        let source = Arc::new(Source { handle: reader.handle(), queue: queue.clone(), filter: Mutex::new(filter) });
+        let drain = Mutex::new(Drain { filter, ahead: HashMap::new() });
+        let source = Arc::new(Source { handle: reader.handle(), queue: queue.clone(), drain });
         // Cannot fail: the cell was created above and is set only here.
         let _ = cell.set(Arc::downgrade(&source));
         // Samples may have arrived before the cell was set.
@@ -414,12 +416,21 @@ struct Source {
     handle: sys::ReaderHandle,
     queue: SampleQueue,
     /// Also serializes drains, so samples enter the queue in the order Fast DDS gives them.
-    filter: Mutex<Option<Filter>>,
+    drain: Mutex<Drain>,
+}
+
+/// What a drain applies to the samples it takes.
+struct Drain {
+    filter: Option<Filter>,
+    /// Per writer GUID, how many of its next samples were queued ahead ([`RawReader::deliver_ahead`]):
+    /// Fast DDS' copies are dropped.
+    ahead: HashMap<[u8; 16], u32>,
 }
 
 impl Source {
     fn drain(&self) {
-        let mut filter = lock(&self.filter);
+        let mut guard = lock(&self.drain);
+        let Drain { filter, ahead } = &mut *guard;
         let mut batch = Vec::new();
         loop {
             let room = self.queue.room_or_pause();
@@ -450,7 +461,7 @@ impl Source {
                 return;
             }
             let took = batch.len();
-            self.queue.deliver(&mut batch, &mut filter);
+            self.queue.deliver_skipping(&mut batch, filter, ahead);
             if took < want {
                 return;
             }
@@ -478,6 +489,28 @@ impl std::fmt::Debug for RawReader {
 impl RawReader {
     pub(crate) fn queue(&self) -> &SampleQueue {
         &self.queue
+    }
+
+    /// Queues `body` as a sample of `writer` (a writer of this process, matched with this reader, that will
+    /// publish it next), ahead of Fast DDS' copy, which the reader then drops. See
+    /// [`crate::RawReader::deliver_ahead`].
+    pub(crate) fn deliver_ahead(&self, writer: &[u8; 16], body: &[u8]) -> bool {
+        let mut d = lock(&self._source.drain);
+        if d.filter.is_some() {
+            return false;
+        }
+        let queued = self.queue.push_ahead(|| ReceivedSample {
+            data: body.to_vec(),
+            // What `RawWriter::write` sends: CDR little endian.
+            encapsulation: [0, 1],
+            identity: SampleIdentity { writer_guid: *writer, sequence_number: -1 },
+            related_identity: None,
+            request_id: None,
+        });
+        if queued {
+            *d.ahead.entry(*writer).or_insert(0) += 1;
+        }
+        queued
     }
     pub(crate) fn guid(&self) -> [u8; 16] {
         self.guid

@@ -104,6 +104,9 @@ struct QueueState {
     received: u64,
     /// Per writer GUID: the highest sequence number taken from RustDDS and when it was taken.
     progress: HashMap<[u8; 16], (i64, Instant)>,
+    /// Threads in [`SampleQueue::wait`]: the condition variable is notified only for them (a notification
+    /// is a system call, paid per delivery otherwise).
+    waiting: usize,
 }
 
 /// Writers whose progress a queue remembers; past it, entries not updated for [`PROGRESS_FORGET`] go.
@@ -194,8 +197,8 @@ impl SampleQueue {
         s
     }
 
-    /// Moves up to `max` samples into `out`; returns how many.
-    pub fn take_batch(&self, max: usize, out: &mut Vec<ReceivedSample>) -> usize {
+    /// Moves up to `max` samples into `out` (a `Vec`, a `VecDeque`...); returns how many.
+    pub fn take_batch(&self, max: usize, out: &mut impl Extend<ReceivedSample>) -> usize {
         let mut st = self.shared.lock();
         let n = max.min(st.samples.len());
         out.extend(st.samples.drain(..n));
@@ -217,10 +220,12 @@ impl SampleQueue {
             if now >= deadline {
                 return false;
             }
+            st.waiting += 1;
             st = match self.shared.cond.wait_timeout(st, deadline - now) {
                 Ok((g, _)) => g,
                 Err(p) => p.into_inner().0,
             };
+            st.waiting -= 1;
         }
         true
     }
@@ -262,8 +267,47 @@ impl SampleQueue {
         room
     }
 
+    /// Queues a sample the agent's own writer is about to publish, ahead of the engine's copy (see
+    /// [`RawReader::deliver_ahead`](crate::RawReader::deliver_ahead)): only when the queue is not paused (the
+    /// engine then holds no older sample for it) and has room. `make` builds the sample only then.
+    #[cfg_attr(not(feature = "fastdds"), allow(dead_code))]
+    pub(crate) fn push_ahead(&self, make: impl FnOnce() -> ReceivedSample) -> bool {
+        let waker = {
+            let mut st = self.shared.lock();
+            if st.paused || st.samples.len() >= self.shared.capacity {
+                return false;
+            }
+            let was_empty = st.samples.is_empty();
+            st.samples.push_back(make());
+            st.received += 1;
+            if st.waiting > 0 {
+                self.shared.cond.notify_all();
+            }
+            if was_empty {
+                st.waker.clone()
+            } else {
+                None
+            }
+        };
+        if let Some(w) = waker {
+            w();
+        }
+        true
+    }
+
     /// Appends a batch taken from DDS (through `filter`), records writer progress and wakes the agent.
     pub(crate) fn deliver(&self, batch: &mut Vec<ReceivedSample>, filter: &mut Option<Filter>) {
+        self.deliver_skipping(batch, filter, &mut HashMap::new());
+    }
+
+    /// [`SampleQueue::deliver`], dropping per writer GUID as many samples as `ahead` counts (the engine's
+    /// copies of samples queued ahead by [`SampleQueue::push_ahead`]); their progress is recorded.
+    pub(crate) fn deliver_skipping(
+        &self,
+        batch: &mut Vec<ReceivedSample>,
+        filter: &mut Option<Filter>,
+        ahead: &mut HashMap<[u8; 16], u32>,
+    ) {
         let now = Instant::now();
         let waker = {
             let mut st = self.shared.lock();
@@ -276,6 +320,15 @@ impl SampleQueue {
                 st.progress.retain(|_, (_, at)| now.duration_since(*at) < PROGRESS_FORGET);
             }
             for s in batch.drain(..) {
+                if !ahead.is_empty() {
+                    if let Some(n) = ahead.get_mut(&s.identity.writer_guid) {
+                        *n -= 1;
+                        if *n == 0 {
+                            ahead.remove(&s.identity.writer_guid);
+                        }
+                        continue;
+                    }
+                }
                 let s = match filter.as_mut() {
                     Some(f) => match f(s) {
                         Some(s) => s,
@@ -286,7 +339,9 @@ impl SampleQueue {
                 st.samples.push_back(s);
                 st.received += 1;
             }
-            self.shared.cond.notify_all();
+            if st.waiting > 0 {
+                self.shared.cond.notify_all();
+            }
             if was_empty && !st.samples.is_empty() {
                 st.waker.clone()
             } else {
@@ -308,6 +363,7 @@ impl QueueShared {
                 waker: None,
                 received: 0,
                 progress: HashMap::new(),
+                waiting: 0,
             }),
             cond: Condvar::new(),
             capacity: capacity.max(1),
@@ -559,5 +615,78 @@ fn drain(entry: &mut Entry, batch: &mut Vec<ReceivedSample>) {
         if took < room.min(BATCH) {
             return;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(writer: u8, seq: i64) -> ReceivedSample {
+        let mut writer_guid = [0; 16];
+        writer_guid[0] = writer;
+        ReceivedSample {
+            data: vec![writer, seq as u8],
+            encapsulation: [0, 1],
+            identity: SampleIdentity { writer_guid, sequence_number: seq },
+            related_identity: None,
+            request_id: None,
+        }
+    }
+
+    fn bodies(q: &SampleQueue) -> Vec<Vec<u8>> {
+        let mut out: Vec<ReceivedSample> = Vec::new();
+        q.take_batch(usize::MAX, &mut out);
+        out.into_iter().map(|s| s.data).collect()
+    }
+
+    #[test]
+    fn samples_queued_ahead_replace_the_engines_copies_which_still_count_as_progress() {
+        let q = SampleQueue::new_detached(4, Arc::new(|| {}));
+        let wakes = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let w = Arc::clone(&wakes);
+        q.set_waker(Some(Arc::new(move || {
+            w.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        })));
+        let mut ahead = HashMap::new();
+        // Writer 1's samples 1 and 2 go ahead (as the agent does before the DDS write).
+        for seq in 1..=2 {
+            assert!(q.push_ahead(|| ReceivedSample {
+                identity: SampleIdentity { sequence_number: -1, ..sample(1, seq).identity },
+                ..sample(1, seq)
+            }));
+            *ahead.entry(sample(1, seq).identity.writer_guid).or_insert(0) += 1;
+        }
+        assert_eq!(
+            wakes.load(std::sync::atomic::Ordering::Relaxed),
+            1,
+            "woken once, when the queue got its first sample"
+        );
+        // The engine then delivers its copies, with writer 2's sample between them: the copies go, the
+        // other stays, and writer 1's progress is the copies' sequence numbers.
+        let mut batch = vec![sample(1, 1), sample(2, 7), sample(1, 2)];
+        q.deliver_skipping(&mut batch, &mut None, &mut ahead);
+        assert!(ahead.is_empty(), "every copy was dropped: {ahead:?}");
+        assert_eq!(q.progress_from(&sample(1, 0).identity.writer_guid).map(|p| p.0), Some(2));
+        assert_eq!(q.received(), 3);
+        assert_eq!(bodies(&q), vec![vec![1, 1], vec![1, 2], vec![2, 7]]);
+        // A later sample of writer 1 that did not go ahead is delivered.
+        q.deliver_skipping(&mut vec![sample(1, 3)], &mut None, &mut ahead);
+        assert_eq!(bodies(&q), vec![vec![1, 3]]);
+    }
+
+    #[test]
+    fn nothing_goes_ahead_into_a_full_or_paused_queue() {
+        let q = SampleQueue::new_detached(4, Arc::new(|| {}));
+        for seq in 1..=4 {
+            assert!(q.push_ahead(|| sample(1, seq)));
+        }
+        assert!(!q.push_ahead(|| unreachable!("full: the sample is not even built")), "full");
+        assert_eq!(q.room_or_pause(), 0, "the engine finds it full and pauses it");
+        let mut out: Vec<ReceivedSample> = Vec::new();
+        q.take_batch(1, &mut out);
+        assert!(!q.push_ahead(|| sample(1, 5)), "paused: the engine may hold older samples, which come first");
+        q.take_batch(1, &mut out);
+        assert!(q.push_ahead(|| sample(1, 5)), "resumed once half empty");
     }
 }

@@ -251,9 +251,21 @@ where
         }
     }
 
-    /// The next instant [`Self::handle_timeout`] must be called, if any.
+    /// The next instant [`Self::handle_timeout`] must be called, if any (work the middleware put off until
+    /// [`Self::after_send`] counts as due).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.timers.peek().map(|Reverse((due, _))| *due)
+        let timer = self.timers.peek().map(|Reverse((due, _))| *due);
+        match (timer, self.middleware.flush_due()) {
+            (Some(t), Some(f)) => Some(t.min(f)),
+            (t, f) => t.or(f),
+        }
+    }
+
+    /// Call once the messages taken from [`Self::poll_transmit`] are sent: the middleware does the work it
+    /// put off so that it would not delay them (the DDS middleware's DDS writes of samples that went ahead to
+    /// the agent's own readers). Samples this delivers wake the middleware's waker as usual.
+    pub fn after_send(&mut self, now: Instant) {
+        self.middleware.flush(now);
     }
 
     /// Runs the clients' timers that are due (heartbeats, liveliness, tail-loss probes, paced reads) and the
@@ -291,6 +303,10 @@ where
                 continue;
             }
             self.after_turn(key, retry);
+        }
+        if self.middleware.flush_due().is_some_and(|due| due <= now) {
+            // The shell did not call `after_send`.
+            self.middleware.flush(now);
         }
         self.middleware.poll(now);
         self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));

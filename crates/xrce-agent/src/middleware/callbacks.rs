@@ -150,6 +150,12 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn poll(&mut self, now: Instant) {
         self.inner.poll(now);
     }
+    fn flush(&mut self, now: Instant) {
+        self.inner.flush(now);
+    }
+    fn flush_due(&self) -> Option<Instant> {
+        self.inner.flush_due()
+    }
     fn set_waker(&mut self, waker: Waker) {
         self.inner.set_waker(waker);
     }

@@ -297,6 +297,19 @@ pub trait Middleware {
     /// first-contact gate); the core calls it when the waker fired and on its timers. Default: nothing.
     fn poll(&mut self, _now: Instant) {}
 
+    /// Does the work the middleware put off until the shell has sent its turn's messages (the DDS
+    /// middleware: the DDS writes of samples it handed to the agent's own readers ahead, so that the DDS write
+    /// is not on the way from one client to the other). The core calls it from
+    /// [`AgentCore::after_send`](crate::core::AgentCore::after_send), and from `handle_timeout` once
+    /// [`Self::flush_due`]. Not from [`Self::poll`], which runs before the turn's sends. Default: nothing.
+    fn flush(&mut self, _now: Instant) {}
+
+    /// When work waiting for [`Self::flush`] is due at the latest, if any: the core's `poll_timeout` reports
+    /// it, so a shell that does not call `after_send` runs it with its timers. Default: never.
+    fn flush_due(&self) -> Option<Instant> {
+        None
+    }
+
     /// Installs the waker for samples arriving outside core calls; synchronous middlewares ignore it.
     fn set_waker(&mut self, _waker: Waker) {}
 
@@ -361,6 +374,12 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     }
     fn poll(&mut self, now: Instant) {
         (**self).poll(now);
+    }
+    fn flush(&mut self, now: Instant) {
+        (**self).flush(now);
+    }
+    fn flush_due(&self) -> Option<Instant> {
+        (**self).flush_due()
     }
     fn set_waker(&mut self, waker: Waker) {
         (**self).set_waker(waker);

@@ -7,8 +7,14 @@
 //! turn: take back the buffers sent last turn, hand the input to the core, send the ACKNACKs owed at once
 //! (UDP); if the shell already holds more input, end the turn there, a few times in a row at most
 //! ([`MAX_DEFERRED_SENDS`]); else run the library API's jobs, poll the middleware if it woke, run due timers,
-//! take every message to send (written by the core into the driver's spare buffers), send them. The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
+//! take every message to send (written by the core into the driver's spare buffers), send them.
+//!
+//! A middleware may call its waker on the loop's own thread, inside a turn: Fast DDS hands a sample written
+//! by one client to a reader of the same process within the write. That call only raises the flag (no
+//! `mio::Waker` system call, no extra turn): the turn reads the flag after its input, before it polls the
+//! middleware, and the loop does not block while the flag is up ([`LOOP_FLAG`]). The loop owns the core while it runs ([`SharedCore::lend`]): no lock per turn.
 
+use std::cell::Cell;
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::io;
@@ -31,6 +37,33 @@ use crate::core::Transmit;
 
 /// The middleware waker's token in every shell's poll; shells number their sources from 1.
 pub const WAKER: Token = Token(0);
+
+thread_local! {
+    /// The wake flag of the loop running on this thread (null when none): a waker called on that thread
+    /// only raises the flag, which the loop reads before blocking, instead of waking the loop's poll.
+    static LOOP_FLAG: Cell<*const WakeFlag> = const { Cell::new(std::ptr::null()) };
+}
+
+/// Marks this thread as running the loop of `flag` until dropped.
+struct LoopThread;
+
+impl LoopThread {
+    fn enter(flag: &WakeFlag) -> Self {
+        LOOP_FLAG.with(|f| f.set(flag));
+        LoopThread
+    }
+}
+
+impl Drop for LoopThread {
+    fn drop(&mut self) {
+        LOOP_FLAG.with(|f| f.set(std::ptr::null()));
+    }
+}
+
+/// Whether this thread runs the loop of `flag` (a waker then needs no system call).
+fn on_loop_thread(flag: &WakeFlag) -> bool {
+    LOOP_FLAG.with(|f| std::ptr::eq(f.get(), flag))
+}
 
 /// A shell's sources, as one [`Driver::drive`] turn sees them.
 pub trait Io<E> {
@@ -123,8 +156,6 @@ pub struct Driver<E> {
     spare: Vec<Vec<u8>>,
     /// Turns since the last send that took input and deferred the rest ([`MAX_DEFERRED_SENDS`]).
     deferred: u8,
-    /// The middleware's waker fired during a deferred turn.
-    woken: bool,
 }
 
 impl<E: Copy + Eq + Hash + Debug> Default for Driver<E> {
@@ -135,20 +166,20 @@ impl<E: Copy + Eq + Hash + Debug> Default for Driver<E> {
             spent: Spent { buffers: Vec::new(), gone: Vec::new() },
             spare: Vec::new(),
             deferred: 0,
-            woken: false,
         }
     }
 }
 
 impl<E: Copy + Eq + Hash + Debug> Driver<E> {
-    /// One turn (see the module documentation); `woken`: the middleware's waker fired since the last one;
-    /// `jobs`: the library API's calls waiting for the core. Returns how long the loop may block before the
-    /// next turn.
+    /// One turn (see the module documentation); `wake`: raised when the middleware's waker fired (read once
+    /// the input is in, so samples the input itself delivered are served in this turn); `jobs`: the library
+    /// API's calls waiting for the core. Returns how long the loop may block before the next turn: zero
+    /// while `wake` is up.
     pub fn drive<I: Io<E>>(
         &mut self,
         c: &mut Core<E>,
         jobs: &Receiver<Job<E>>,
-        woken: bool,
+        wake: &WakeFlag,
         io: &mut I,
     ) -> io::Result<Duration> {
         let hex = tracing::enabled!(target: "xrce_agent::hexdump", tracing::Level::TRACE);
@@ -177,13 +208,11 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         if delivered > 1 && self.deferred < MAX_DEFERRED_SENDS && io.prefetch()? {
             // More input is here already: take it first, and send what both produced together.
             self.deferred += 1;
-            self.woken |= woken;
             return Ok(Duration::ZERO);
         }
         self.deferred = 0;
-        let woken = std::mem::take(&mut self.woken) | woken;
         run_jobs(c, jobs);
-        if woken {
+        if wake.take() {
             c.poll_middleware(now);
         }
         if c.poll_timeout().is_some_and(|t| t <= now) {
@@ -197,10 +226,12 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
             };
             self.out.push(Transmit { to, data });
         }
-        let wait = block_for(c.poll_timeout(), now);
         dump_sent(hex, &self.out);
         io.send(&mut self.out, &mut self.spent);
-        Ok(wait)
+        c.after_send(now);
+        let wait = block_for(c.poll_timeout(), now);
+        // Raised on this thread after the poll above (a drained queue resumed): no wake-up will come.
+        Ok(if wake.is_raised() { Duration::ZERO } else { wait })
     }
 
     /// Takes back the buffers of the last turn (sent, dropped or left unsent) as spares, and tells the core
@@ -258,7 +289,8 @@ fn attach<E: Copy + Eq + Hash + Debug + Send + 'static>(
     core.with(move |c| {
         c.set_wall_clock(Instant::now(), since_epoch);
         c.middleware_mut().set_waker(Arc::new(move || {
-            if raised.raise() {
+            // On the loop's own thread the loop sees the flag before it blocks (`LOOP_FLAG`).
+            if raised.raise() && !on_loop_thread(&raised) {
                 // A failed wake-up only delays the poll to the loop's next turn (at most MAX_BLOCK).
                 let _ = wakes.wake();
             }
@@ -358,6 +390,7 @@ where
     let mut driver = Driver::default();
     let mut events = Events::with_capacity(256);
     let mut wait = Duration::ZERO;
+    let _loop_thread = LoopThread::enter(wake);
     while !stop.load(Ordering::Relaxed) {
         if !io.prefetch()? {
             if let Err(e) = poll.poll(&mut events, Some(wait)) {
@@ -376,7 +409,7 @@ where
                 }
             }
         }
-        wait = driver.drive(core, jobs, wake.take(), io)?;
+        wait = driver.drive(core, jobs, wake, io)?;
     }
     Ok(())
 }
@@ -429,17 +462,17 @@ mod tests {
         let turns = 3 * (usize::from(MAX_DEFERRED_SENDS) + 1);
         let mut io = Busy { more: usize::MAX, per_read: 2, sends: 0 };
         for _ in 0..turns {
-            driver.drive(&mut core, &jobs, false, &mut io).unwrap();
+            driver.drive(&mut core, &jobs, &WakeFlag::default(), &mut io).unwrap();
         }
         assert_eq!(io.sends, 3, "one send per {} turns while input keeps coming", MAX_DEFERRED_SENDS + 1);
         let mut io = Busy { more: 0, per_read: 2, sends: 0 };
         for _ in 0..4 {
-            driver.drive(&mut core, &jobs, false, &mut io).unwrap();
+            driver.drive(&mut core, &jobs, &WakeFlag::default(), &mut io).unwrap();
         }
         assert_eq!(io.sends, 4, "nothing waits when no input does");
         let mut io = Busy { more: usize::MAX, per_read: 1, sends: 0 };
         for _ in 0..4 {
-            driver.drive(&mut core, &jobs, false, &mut io).unwrap();
+            driver.drive(&mut core, &jobs, &WakeFlag::default(), &mut io).unwrap();
         }
         assert_eq!(io.sends, 4, "a turn on one message answers at once");
     }

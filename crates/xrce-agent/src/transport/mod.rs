@@ -71,6 +71,11 @@ impl WakeFlag {
     pub fn take(&self) -> bool {
         self.pending.swap(false, Ordering::AcqRel)
     }
+
+    /// Whether the flag is up, without lowering it.
+    pub fn is_raised(&self) -> bool {
+        self.pending.load(Ordering::Acquire)
+    }
 }
 
 #[cfg(test)]
