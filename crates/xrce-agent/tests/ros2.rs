@@ -383,12 +383,21 @@ fn boot_storm(n: usize, port: u16, key_base: u32) {
             StormNode::Px4 => {
                 services += 1;
                 let written = events.iter().filter(|e| e.name == "written").count();
-                let got = samples_on(&format!("fmu/out/{px4_topic}")).len();
+                let arrivals = samples_on(&format!("fmu/out/{px4_topic}"));
+                let got = arrivals.len();
                 px4_pct = if written == 0 { 0.0 } else { 100.0 * got as f64 / written as f64 };
+                // Which samples were lost, and when the first arrived, tell a late match from a stall.
+                let arrived: BTreeSet<u64> = arrivals.iter().map(|s| s.1).collect();
+                let missing: Vec<u64> =
+                    ros2_common::written(events).iter().map(|w| w.0).filter(|i| !arrived.contains(i)).collect();
+                let first_at = ok_at.zip(arrivals.first().map(|s| s.2)).map(|(a, b)| ms_between(a, b));
                 // A first-contact threshold (issue 11): asserted under XRCE_ROS_STRICT, printed in CI.
                 check_first_contact(
                     px4_pct >= MIN_BEST_EFFORT_DELIVERY * 100.0,
-                    &format!("boot storm of {n}: PX4 best effort: {got} of {written}"),
+                    &format!(
+                        "boot storm of {n}: PX4 best effort: {got} of {written}, missing {missing:?}, first at {} ms",
+                        fmt_ms(first_at)
+                    ),
                 );
                 let ok = replies_ok(&format!("fmu/{px4_service}"));
                 if ok == STORM_CALLS {
