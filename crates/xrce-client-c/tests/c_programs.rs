@@ -1,0 +1,95 @@
+//! The C tests (tests/c/*.c): each program is compiled against include/ and linked the way a user links
+//! (`-lmicroxrcedds_client -lmicrocdr` and the system's libraries), once plainly and once under
+//! `-fsanitize=address,undefined`, then run; those that talk to an agent get ours (`-m ced`, in this process,
+//! on 127.0.0.1).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use xrce_agent::agent::AgentInstance;
+
+/// Directory holding `libmicroxrcedds_client.a`: the test binary is `<target>/<profile>/deps/<name>`.
+fn library_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    exe.parent().and_then(Path::parent).expect("profile directory").to_path_buf()
+}
+
+/// Compiles `tests/c/<name>.c` into an executable; `sanitize` adds ASan and UBSan.
+fn compile(name: &str, sanitize: bool) -> PathBuf {
+    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let lib_dir = library_dir();
+    let exe = lib_dir.join(format!("c-test-{name}{}", if sanitize { "-san" } else { "" }));
+    let compiler = cc::Build::new()
+        .target(env!("XRCE_C_TARGET"))
+        .host(env!("XRCE_C_HOST"))
+        .opt_level(1)
+        .cargo_metadata(false)
+        .warnings(true)
+        .get_compiler();
+    let mut cmd = compiler.to_command();
+    cmd.arg("-std=c11").arg("-Wall").arg("-Wextra").arg("-Werror");
+    if sanitize {
+        cmd.args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]);
+    }
+    cmd.arg(crate_dir.join("tests/c").join(format!("{name}.c")))
+        .arg("-I")
+        .arg(crate_dir.join("include"))
+        .arg("-o")
+        .arg(&exe)
+        .arg("-L")
+        .arg(&lib_dir)
+        .args(["-lmicroxrcedds_client", "-lmicrocdr", "-lpthread", "-ldl", "-lm"]);
+    let out = cmd.output().expect("C compiler runs");
+    assert!(
+        out.status.success(),
+        "compiling {name}.c failed:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    exe
+}
+
+/// Runs `name` plainly and under the sanitizers with `args`; both must exit 0.
+fn run(name: &str, args: &[&str]) {
+    for sanitize in [false, true] {
+        let exe = compile(name, sanitize);
+        let out = Command::new(&exe)
+            .args(args)
+            .env("ASAN_OPTIONS", "abort_on_error=0:detect_leaks=1")
+            .env("UBSAN_OPTIONS", "print_stacktrace=1:halt_on_error=1")
+            .output()
+            .expect("C test runs");
+        println!("{name}{}: {}", if sanitize { " (sanitized)" } else { "" }, String::from_utf8_lossy(&out.stdout));
+        assert!(
+            out.status.success(),
+            "{name}{} failed ({}):\n{}{}",
+            if sanitize { " under the sanitizers" } else { "" },
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+/// Runs `name IP PORT` against our agent.
+fn run_with_agent(name: &str) {
+    let mut agent = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
+    let port = agent.local_addr().expect("agent bound").port().to_string();
+    run(name, &["127.0.0.1", &port]);
+    agent.stop().expect("agent stops");
+}
+
+#[test]
+fn ucdr_serializes_every_primitive_array_sequence_and_string() {
+    run("ucdr", &[]);
+}
+
+#[test]
+fn the_boundary_answers_bad_arguments_with_the_seeds_error_values() {
+    run("boundary", &[]);
+}
+
+#[test]
+fn hello_world_publisher_and_subscriber_through_our_agent() {
+    run_with_agent("hello_pubsub");
+}
