@@ -93,3 +93,13 @@ fn the_boundary_answers_bad_arguments_with_the_seeds_error_values() {
 fn hello_world_publisher_and_subscriber_through_our_agent() {
     run_with_agent("hello_pubsub");
 }
+
+#[test]
+fn request_reply_with_binary_entities_and_a_reply_from_the_callback() {
+    run_with_agent("services");
+}
+
+#[test]
+fn a_sample_larger_than_the_history_goes_through_continuous_fragmentation() {
+    run_with_agent("big");
+}

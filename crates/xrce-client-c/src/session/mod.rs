@@ -1,6 +1,7 @@
 //! `uxrSession`: the Rust blocking session kept inside the C structure, and the functions every other part
 //! uses to reach it safely from a C pointer.
 
+mod fragmented;
 mod hooks;
 mod run;
 mod streams;
@@ -47,6 +48,10 @@ struct Slot {
     in_callback: CallbackOutputs,
     /// While a call holds the Rust session: a callback calling back into a running function gets its error value.
     busy: Cell<bool>,
+    /// A `uxr_prepare_output_stream_fragmented` write in progress.
+    fragment: fragmented::Fragment,
+    /// While its window is pushed (the flush callback may run the session, which must not push it again).
+    pushing: Cell<bool>,
     session: Inner,
 }
 
@@ -148,6 +153,8 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
         this: session,
         in_callback: Cell::new(core::ptr::null_mut()),
         busy: Cell::new(false),
+        fragment: fragmented::Fragment::idle(),
+        pushing: Cell::new(false),
         session: inner,
     };
     // SAFETY: `slot` is writable storage large and aligned enough (checked above at compile time); `write`

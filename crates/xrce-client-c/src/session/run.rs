@@ -1,7 +1,20 @@
 //! Creating and deleting the session, the `uxr_run_session_*` family, time and ping.
 
-use super::{uxrSession, with_session};
+use super::fragmented::finish_pending;
+use super::{uxrSession, with_session, Inner};
 use crate::comm::{uxrCommunication, Comm};
+
+/// [`with_session`] for the functions that send: the last window of a fragmented write goes first.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+unsafe fn sending<R>(session: *mut uxrSession, fallback: R, f: impl FnOnce(&mut Inner) -> R) -> R {
+    // SAFETY: contract.
+    unsafe {
+        finish_pending(session);
+        with_session(session, fallback, f)
+    }
+}
 
 macro_rules! run_fn {
     ($(#[$m:meta])* $name:ident => $method:ident) => {
@@ -12,7 +25,7 @@ macro_rules! run_fn {
         #[no_mangle]
         pub unsafe extern "C" fn $name(session: *mut uxrSession, timeout_ms: i32) -> bool {
             // SAFETY: contract.
-            unsafe { with_session(session, false, |s| s.$method(timeout_ms).unwrap_or(false)) }
+            unsafe { sending(session, false, |s| s.$method(timeout_ms).unwrap_or(false)) }
         }
     };
 }
@@ -44,7 +57,7 @@ pub unsafe extern "C" fn uxr_create_session_retries(session: *mut uxrSession, re
 #[no_mangle]
 pub unsafe extern "C" fn uxr_delete_session(session: *mut uxrSession) -> bool {
     // SAFETY: contract.
-    unsafe { with_session(session, false, |s| s.delete_session().unwrap_or(false)) }
+    unsafe { sending(session, false, |s| s.delete_session().unwrap_or(false)) }
 }
 
 /// `uxr_delete_session_retries`.
@@ -65,7 +78,7 @@ pub unsafe extern "C" fn uxr_delete_session_retries(session: *mut uxrSession, re
 pub unsafe extern "C" fn uxr_flash_output_streams(session: *mut uxrSession) {
     // SAFETY: contract.
     unsafe {
-        with_session(session, (), |s| {
+        sending(session, (), |s| {
             let _ = s.flash_output_streams();
         })
     }
@@ -112,7 +125,7 @@ unsafe fn lists<'l>(requests: *const u16, statuses: *mut u8, n: usize) -> Option
 }
 
 /// The Rust session's `run_session_until_all_status` or `_one_status`.
-type StatusWait = fn(&mut super::Inner, i32, &[u16], &mut [u8]) -> xrce_client::Result<bool>;
+type StatusWait = fn(&mut Inner, i32, &[u16], &mut [u8]) -> xrce_client::Result<bool>;
 
 /// Runs `wait` over the C lists.
 ///
@@ -129,7 +142,7 @@ unsafe fn until_status(
     // SAFETY: contract.
     let Some((requests, statuses)) = (unsafe { lists(request_list, status_list, list_size) }) else { return false };
     // SAFETY: contract.
-    unsafe { with_session(session, false, |s| wait(s, timeout_ms, requests, statuses).unwrap_or(false)) }
+    unsafe { sending(session, false, |s| wait(s, timeout_ms, requests, statuses).unwrap_or(false)) }
 }
 
 /// `uxr_run_session_until_all_status`.

@@ -1,13 +1,11 @@
 /* Hello world through the agent: a subscriber session and a publisher session over UDP, entities by XML,
  * a HelloWorld topic serialized with ucdr_*, ten samples published reliably and received in order.
  * Usage: hello_pubsub IP PORT. Exit status 0 when every sample arrived. */
-#include <uxr/client/client.h>
+#include "node.h"
 
 #include <stdio.h>
 #include <string.h>
 
-#define HISTORY 8
-#define BUFFER_SIZE (UXR_CONFIG_UDP_TRANSPORT_MTU * HISTORY)
 #define SAMPLES 10
 
 typedef struct HelloWorld {
@@ -62,30 +60,6 @@ static const char* datawriter_xml = "<dds><data_writer><topic><kind>NO_KEY</kind
 static const char* datareader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>"
                                     "<dataType>HelloWorld</dataType></topic></data_reader></dds>";
 
-typedef struct Node {
-    uxrUDPTransport transport;
-    uxrSession session;
-    uint8_t output[BUFFER_SIZE];
-    uint8_t input[BUFFER_SIZE];
-    uxrStreamId out;
-    uxrStreamId in;
-} Node;
-
-static bool start(Node* node, const char* ip, const char* port, uint32_t key) {
-    if (!uxr_init_udp_transport(&node->transport, UXR_IPv4, ip, port)) {
-        fprintf(stderr, "udp transport\n");
-        return false;
-    }
-    uxr_init_session(&node->session, &node->transport.comm, key);
-    if (!uxr_create_session(&node->session)) {
-        fprintf(stderr, "create session\n");
-        return false;
-    }
-    node->out = uxr_create_output_reliable_stream(&node->session, node->output, BUFFER_SIZE, HISTORY);
-    node->in = uxr_create_input_reliable_stream(&node->session, node->input, BUFFER_SIZE, HISTORY);
-    return node->out.type == UXR_RELIABLE_STREAM && node->in.type == UXR_RELIABLE_STREAM;
-}
-
 static bool create_entities(Node* node, bool writer) {
     uxrObjectId participant_id = uxr_object_id(0x01, UXR_PARTICIPANT_ID);
     uxrObjectId topic_id = uxr_object_id(0x01, UXR_TOPIC_ID);
@@ -101,12 +75,7 @@ static bool create_entities(Node* node, bool writer) {
         requests[2] = uxr_buffer_create_subscriber_xml(&node->session, node->out, parent_id, participant_id, "", UXR_REPLACE);
         requests[3] = uxr_buffer_create_datareader_xml(&node->session, node->out, endpoint_id, parent_id, datareader_xml, UXR_REPLACE);
     }
-    uint8_t status[4];
-    if (!uxr_run_session_until_all_status(&node->session, 3000, requests, status, 4)) {
-        fprintf(stderr, "entities: %u %u %u %u\n", status[0], status[1], status[2], status[3]);
-        return false;
-    }
-    return true;
+    return node_statuses_ok(node, requests, 4, "entities");
 }
 
 int main(int argc, char** argv) {
@@ -116,7 +85,7 @@ int main(int argc, char** argv) {
     }
     static Node subscriber, publisher;
     uint32_t count = 0;
-    if (!start(&subscriber, argv[1], argv[2], 0xC0DE0001) || !start(&publisher, argv[1], argv[2], 0xC0DE0002)) {
+    if (!node_start(&subscriber, argv[1], argv[2], 0xC0DE0001) || !node_start(&publisher, argv[1], argv[2], 0xC0DE0002)) {
         return 1;
     }
     uxr_set_topic_callback(&subscriber.session, on_topic, &count);
@@ -154,9 +123,7 @@ int main(int argc, char** argv) {
     }
     printf("received %u of %u samples, %s\n", received, SAMPLES, in_order ? "in order" : "NOT in order");
 
-    uxr_delete_session(&publisher.session);
-    uxr_delete_session(&subscriber.session);
-    uxr_close_udp_transport(&publisher.transport);
-    uxr_close_udp_transport(&subscriber.transport);
+    node_stop(&publisher);
+    node_stop(&subscriber);
     return received == SAMPLES && count == SAMPLES && in_order ? 0 : 1;
 }
