@@ -80,6 +80,17 @@ fn run_with_agent(name: &str) {
 }
 
 #[test]
+fn ping_time_references_deletion_custom_and_tcp_transports() {
+    let mut udp = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
+    let mut tcp = AgentInstance::create(["xrce-agent", "tcp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
+    let udp_port = udp.local_addr().expect("agent bound").port().to_string();
+    let tcp_port = tcp.local_addr().expect("agent bound").port().to_string();
+    run("misc", &["127.0.0.1", &udp_port, &tcp_port]);
+    udp.stop().expect("agent stops");
+    tcp.stop().expect("agent stops");
+}
+
+#[test]
 fn ucdr_serializes_every_primitive_array_sequence_and_string() {
     run("ucdr", &[]);
 }
