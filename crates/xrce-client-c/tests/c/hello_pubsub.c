@@ -1,6 +1,8 @@
 /* Hello world through the agent: a subscriber session and a publisher session over UDP, entities by XML,
  * a HelloWorld topic serialized with ucdr_*, ten samples published reliably and received in order.
- * Usage: hello_pubsub IP PORT. Exit status 0 when every sample arrived. */
+ * Usage: hello_pubsub IP PORT [SETTLE_MS]. Exit status 0 when every sample arrived. SETTLE_MS: time given to an
+ * agent whose middleware matches writers and readers asynchronously (DDS) before the first sample. */
+#include <stdlib.h>
 #include "node.h"
 
 #include <stdio.h>
@@ -79,8 +81,8 @@ static bool create_entities(Node* node, bool writer) {
 }
 
 int main(int argc, char** argv) {
-    if (argc != 3) {
-        fprintf(stderr, "usage: %s IP PORT\n", argv[0]);
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s IP PORT [SETTLE_MS]\n", argv[0]);
         return 2;
     }
     static Node subscriber, publisher;
@@ -103,6 +105,10 @@ int main(int argc, char** argv) {
         return 1;
     }
 
+    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
+        uxr_run_session_time(&subscriber.session, 5);
+        uxr_run_session_time(&publisher.session, 5);
+    }
     for (uint32_t i = 0; i < SAMPLES; i++) {
         HelloWorld topic = {i, "Hello DDS world!"};
         ucdrBuffer ub;

@@ -1,6 +1,7 @@
 /* Request/reply through the agent with entities created in binary: a replier that answers from its request
  * callback (uxr_buffer_reply inside the callback), a requester sending three additions and matching each
- * reply to its request id. Usage: services IP PORT. */
+ * reply to its request id. Usage: services IP PORT [SETTLE_MS] (as in hello_pubsub.c). */
+#include <stdlib.h>
 #include "node.h"
 
 #include <string.h>
@@ -50,7 +51,7 @@ static void on_reply(uxrSession* session, uxrObjectId object_id, uint16_t reques
 static bool create(Node* node, bool replier) {
     uxrObjectId participant = uxr_object_id(0x01, UXR_PARTICIPANT_ID);
     uxrObjectId endpoint = uxr_object_id(0x01, replier ? UXR_REPLIER_ID : UXR_REQUESTER_ID);
-    uxrQoS_t qos = {UXR_DURABILITY_VOLATILE, UXR_RELIABILITY_RELIABLE, UXR_HISTORY_KEEP_LAST, 0};
+    uxrQoS_t qos = {UXR_DURABILITY_VOLATILE, UXR_RELIABILITY_RELIABLE, UXR_HISTORY_KEEP_LAST, 10};
     uint16_t requests[2];
     requests[0] = uxr_buffer_create_participant_bin(&node->session, node->out, participant, 0, "adder", UXR_REPLACE);
     if (replier) {
@@ -71,7 +72,7 @@ static bool create(Node* node, bool replier) {
 }
 
 int main(int argc, char** argv) {
-    if (argc != 3) {
+    if (argc < 3) {
         return 2;
     }
     static Node replier, requester;
@@ -83,6 +84,10 @@ int main(int argc, char** argv) {
     uxr_set_reply_callback(&requester.session, on_reply, NULL);
     if (!create(&replier, true) || !create(&requester, false)) {
         return 1;
+    }
+    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
+        uxr_run_session_time(&replier.session, 5);
+        uxr_run_session_time(&requester.session, 5);
     }
     uxrObjectId requester_id = uxr_object_id(0x01, UXR_REQUESTER_ID);
     for (int i = 0; i < REQUESTS; i++) {
