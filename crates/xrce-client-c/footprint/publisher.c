@@ -3,6 +3,7 @@
  * and one reliable input stream of 4 x 512 B, entities by XML, HelloWorld samples serialized with ucdr_* in
  * place. scripts/c-footprint.sh builds it and subtracts empty.c. Usage: publisher IP PORT [SAMPLES]. */
 #include "../tests/c/udp_custom.h"
+#include "../tests/c/hello_world.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,24 +11,6 @@
 
 #define HISTORY 4
 #define BUFFER_SIZE (UXR_CONFIG_CUSTOM_TRANSPORT_MTU * HISTORY)
-
-typedef struct HelloWorld {
-    uint32_t index;
-    char message[255];
-} HelloWorld;
-
-static bool HelloWorld_serialize_topic(ucdrBuffer* writer, const HelloWorld* topic) {
-    bool ok = ucdr_serialize_uint32_t(writer, topic->index);
-    ok &= ucdr_serialize_string(writer, topic->message);
-    return ok;
-}
-
-static uint32_t HelloWorld_size_of_topic(const HelloWorld* topic, uint32_t size) {
-    uint32_t previous = size;
-    size += ucdr_alignment(size, 4) + 4;
-    size += ucdr_alignment(size, 4) + 4 + (uint32_t)strlen(topic->message) + 1;
-    return size - previous;
-}
 
 static uxrCustomTransport transport;
 static uxrSession session;

@@ -3,36 +3,13 @@
  * Usage: hello_pubsub IP PORT [SETTLE_MS]. Exit status 0 when every sample arrived. SETTLE_MS: time given to an
  * agent whose middleware matches writers and readers asynchronously (DDS) before the first sample. */
 #include <stdlib.h>
+#include "hello_world.h"
 #include "node.h"
 
 #include <stdio.h>
 #include <string.h>
 
 #define SAMPLES 10
-
-typedef struct HelloWorld {
-    uint32_t index;
-    char message[255];
-} HelloWorld;
-
-static bool HelloWorld_serialize_topic(ucdrBuffer* writer, const HelloWorld* topic) {
-    bool ok = ucdr_serialize_uint32_t(writer, topic->index);
-    ok &= ucdr_serialize_string(writer, topic->message);
-    return ok && !writer->error;
-}
-
-static bool HelloWorld_deserialize_topic(ucdrBuffer* reader, HelloWorld* topic) {
-    bool ok = ucdr_deserialize_uint32_t(reader, &topic->index);
-    ok &= ucdr_deserialize_string(reader, topic->message, sizeof(topic->message));
-    return ok;
-}
-
-static uint32_t HelloWorld_size_of_topic(const HelloWorld* topic, uint32_t size) {
-    uint32_t previous = size;
-    size += ucdr_alignment(size, 4) + 4;
-    size += ucdr_alignment(size, 4) + 4 + (uint32_t)strlen(topic->message) + 1;
-    return size - previous;
-}
 
 static uint32_t received = 0;
 static uint32_t next_index = 0;
