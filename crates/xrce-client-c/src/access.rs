@@ -148,6 +148,25 @@ pub unsafe extern "C" fn uxr_buffer_reply(
     }
 }
 
+/// `uxr_buffer_reply` as the seed's text writes it (no request identity): answers the last request the
+/// session received; 0 when none was. client.h picks it by argument count.
+///
+/// # Safety
+/// As [`uxr_buffer_reply`].
+#[no_mangle]
+pub unsafe extern "C" fn uxr_buffer_reply_last(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    replier_id: uxrObjectId,
+    buffer: *const u8,
+    len: usize,
+) -> u16 {
+    // SAFETY: contract.
+    let Some(sample) = (unsafe { crate::session::last_request(session) }) else { return 0 };
+    // SAFETY: contract; `sample` lives for the call.
+    unsafe { uxr_buffer_reply(session, stream_id, replier_id, &sample, buffer, len) }
+}
+
 /// `uxr_stream_id`.
 #[no_mangle]
 pub extern "C" fn uxr_stream_id(index: u8, type_: u32, direction: u32) -> uxrStreamId {

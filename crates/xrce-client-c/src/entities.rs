@@ -85,8 +85,7 @@ create_by_text! {
     uxr_buffer_create_replier_ref => buffer_create_replier_ref(participant_id: uxrObjectId => parent);
 }
 
-/// `uxr_buffer_create_participant_ref` (seed 000: no domain argument; the reference names the profile, the
-/// domain travels as 0 as eProsima's client sends it).
+/// `uxr_buffer_create_participant_ref` as eProsima's library declares it (with a domain).
 ///
 /// # Safety
 /// `session` null or a `uxrSession`; `reference` null or NUL-terminated.
@@ -107,6 +106,23 @@ pub unsafe extern "C" fn uxr_buffer_create_participant_ref(
             o.buffer_create_participant_ref(stream_id.rust(), object_id.rust(), domain_id, r, mode).unwrap_or(0)
         })
     }
+}
+
+/// `uxr_buffer_create_participant_ref` as the seed's text writes it (no domain argument: domain 0); client.h
+/// picks it by argument count.
+///
+/// # Safety
+/// As [`uxr_buffer_create_participant_ref`].
+#[no_mangle]
+pub unsafe extern "C" fn uxr_buffer_create_participant_ref_seed(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    object_id: uxrObjectId,
+    reference: *const c_char,
+    mode: u8,
+) -> u16 {
+    // SAFETY: contract.
+    unsafe { uxr_buffer_create_participant_ref(session, stream_id, object_id, 0, reference, mode) }
 }
 
 /// `uxr_buffer_create_participant_bin`: a null name creates an unnamed participant.

@@ -5,13 +5,38 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 
 use xrce_agent::agent::AgentInstance;
 
-/// Directory holding `libmicroxrcedds_client.a`: the test binary is `<target>/<profile>/deps/<name>`.
+/// A directory with the library as users link it: `libmicroxrcedds_client.a` and `libmicrocdr.a`.
+///
+/// The test binary is `<target>/<profile>/deps/<name>`; the static library cargo built for this test run is the
+/// newest `deps/libmicroxrcedds_client-<hash>.a` (only `cargo build` copies it to `<profile>/`), and build.rs
+/// wrote `libmicrocdr.a` into `<profile>/`.
 fn library_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    exe.parent().and_then(Path::parent).expect("profile directory").to_path_buf()
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let exe = std::env::current_exe().expect("test executable path");
+        let deps = exe.parent().expect("deps directory");
+        let profile = deps.parent().expect("profile directory");
+        let newest = std::fs::read_dir(deps)
+            .expect("deps directory readable")
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .filter(|p| {
+                let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                name.starts_with("libmicroxrcedds_client-") && name.ends_with(".a")
+            })
+            .max_by_key(|p| p.metadata().and_then(|m| m.modified()).ok())
+            .expect("the static library built for this test run");
+        let dir = profile.join("c-tests");
+        std::fs::create_dir_all(&dir).expect("c-tests directory");
+        std::fs::copy(&newest, dir.join("libmicroxrcedds_client.a")).expect("library copied");
+        std::fs::copy(profile.join("libmicrocdr.a"), dir.join("libmicrocdr.a")).expect("libmicrocdr.a copied");
+        dir
+    })
+    .clone()
 }
 
 /// Compiles `tests/c/<name>.c` into an executable; `sanitize` adds ASan and UBSan.

@@ -1,5 +1,6 @@
 //! The C callbacks of a session (`uxr_set_*_callback`), called from the Rust session's [`Callbacks`].
 
+use core::cell::Cell;
 use core::ffi::c_void;
 
 use xrce_client::{Callbacks, ObjectId, Outputs, StreamId, TimeSample};
@@ -44,6 +45,7 @@ pub struct Hooks {
     /// The C structure, handed to every callback.
     pub session: *mut uxrSession,
     in_callback: *const CallbackOutputs,
+    last_request: *const Cell<Option<SampleIdentity>>,
     /// `uxr_set_status_callback`.
     pub status: Hook<OnStatus>,
     /// `uxr_set_topic_callback`.
@@ -58,10 +60,15 @@ pub struct Hooks {
 
 impl Hooks {
     /// No callback set yet.
-    pub fn new(session: *mut uxrSession, in_callback: *const CallbackOutputs) -> Self {
+    pub fn new(
+        session: *mut uxrSession,
+        in_callback: *const CallbackOutputs,
+        last_request: *const Cell<Option<SampleIdentity>>,
+    ) -> Self {
         Self {
             session,
             in_callback,
+            last_request,
             status: Hook::default(),
             topic: Hook::default(),
             time: Hook::default(),
@@ -117,9 +124,11 @@ impl Callbacks for Hooks {
         sample_id: &xrce_proto::SampleIdentity,
         data: &[u8],
     ) {
+        let mut sample = SampleIdentity::from_rust(sample_id);
+        // SAFETY: `last_request` points into the session's own storage, alive while the session is.
+        unsafe { &*self.last_request }.set(Some(sample));
         let Hook { func: Some(f), args } = self.request else { return };
         let (mut ub, len) = reader(data);
-        let mut sample = SampleIdentity::from_rust(sample_id);
         let object = uxrObjectId::from_rust(object_id);
         // SAFETY: as in `on_topic`; `sample` lives for the call.
         self.lending(out, |s| unsafe { f(s, object, request_id, &mut sample, &mut ub, len, args) });

@@ -48,6 +48,8 @@ struct Slot {
     in_callback: CallbackOutputs,
     /// While a call holds the Rust session: a callback calling back into a running function gets its error value.
     busy: Cell<bool>,
+    /// The identity of the last request received (`uxr_buffer_reply` in the seed's form answers it).
+    last_request: Cell<Option<crate::abi::SampleIdentity>>,
     /// A `uxr_prepare_output_stream_fragmented` write in progress.
     fragment: fragmented::Fragment,
     /// While its window is pushed (the flush callback may run the session, which must not push it again).
@@ -122,6 +124,17 @@ pub unsafe fn with_outputs<R>(
     .unwrap_or(fallback)
 }
 
+/// The identity of the last request `session` received.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+pub unsafe fn last_request(session: *mut uxrSession) -> Option<crate::abi::SampleIdentity> {
+    // SAFETY: contract.
+    let slot = unsafe { slot(session) }?;
+    // SAFETY: an initialised slot; the field is only reached through shared references.
+    unsafe { &*addr_of!((*slot).last_request) }.get()
+}
+
 /// `uxr_init_session`: a session for client `key` over `comm`, which must outlive it. Reconnection is off, as
 /// in eProsima's client (programs carry their own ping-and-recreate logic).
 ///
@@ -142,9 +155,9 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
         unsafe { core::ptr::drop_in_place(old) };
     }
     let slot = session.cast::<Slot>();
-    // SAFETY: only the field's address is taken, inside the storage.
-    let in_callback = unsafe { addr_of!((*slot).in_callback) };
-    let hooks = Hooks::new(session, in_callback);
+    // SAFETY: only the fields' addresses are taken, inside the storage.
+    let (in_callback, last_request) = unsafe { (addr_of!((*slot).in_callback), addr_of!((*slot).last_request)) };
+    let hooks = Hooks::new(session, in_callback, last_request);
     let inner = Session::<Comm, SysClock, (), OBE, ORE, IBE, IRE, MTU>::with_clock(Comm(comm), clock(), key)
         .with_reconnect(None)
         .with_callbacks(hooks);
@@ -153,6 +166,7 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
         this: session,
         in_callback: Cell::new(core::ptr::null_mut()),
         busy: Cell::new(false),
+        last_request: Cell::new(None),
         fragment: fragmented::Fragment::idle(),
         pushing: Cell::new(false),
         session: inner,

@@ -57,6 +57,13 @@ static void over_udp(const char* ip, const char* port) {
     status = UXR_STATUS_NONE;
     uxr_run_session_until_one_status(&node.session, 2000, &t, &status, 1);
     CHECK(status != UXR_STATUS_NONE);
+    /* the seed's form of the participant by reference (no domain) */
+    uint16_t seed_form = uxr_buffer_create_participant_ref(&node.session, node.out, uxr_object_id(9, UXR_PARTICIPANT_ID),
+                                                           "default_xrce_participant", UXR_REPLACE);
+    status = UXR_STATUS_NONE;
+    CHECK(seed_form != UXR_INVALID_REQUEST_ID);
+    uxr_run_session_until_one_status(&node.session, 2000, &seed_form, &status, 1);
+    CHECK(status != UXR_STATUS_NONE);
     /* a participant by XML, then deleted */
     uxrObjectId other = uxr_object_id(8, UXR_PARTICIPANT_ID);
     uint16_t c = uxr_buffer_create_participant_xml(&node.session, node.out, other, 0,

@@ -25,7 +25,10 @@ static void on_request(uxrSession* session, uxrObjectId object_id, uint16_t requ
     ucdr_serialize_int64_t(&out, 0); /* does not fit: the buffer reports the error, nothing is written past it */
     ucdr_reset_buffer(&out);
     ucdr_serialize_int32_t(&out, a + b);
-    if (uxr_buffer_reply(session, replier_out, object_id, sample_id, reply, sizeof(reply)) == 0) {
+    /* both forms: eProsima's (with the request's identity) and the seed's (the last request received) */
+    uint16_t sent = (a % 20 == 0) ? uxr_buffer_reply(session, replier_out, object_id, sample_id, reply, sizeof(reply))
+                                  : uxr_buffer_reply(session, replier_out, object_id, reply, sizeof(reply));
+    if (sent == 0) {
         replies_right = false;
     }
 }

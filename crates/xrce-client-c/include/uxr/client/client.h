@@ -283,6 +283,21 @@ uint16_t uxr_buffer_request(uxrSession* session, uxrStreamId stream_id, uxrObjec
                             size_t len);
 uint16_t uxr_buffer_reply(uxrSession* session, uxrStreamId stream_id, uxrObjectId replier_id,
                           SampleIdentity* sample_id, uint8_t* buffer, size_t len);
+/* The seed's form, without the request's identity: answers the last request the session received. */
+uint16_t uxr_buffer_reply_last(uxrSession* session, uxrStreamId stream_id, uxrObjectId replier_id, uint8_t* buffer,
+                               size_t len);
+
+/* Two functions exist in two forms: the seed's text and eProsima's library differ in one argument. The macros
+ * pick by argument count, so programs written against either compile unchanged. */
+#define UXR_PICK_BY_COUNT_(_1, _2, _3, _4, _5, _6, N, ...) N
+#define uxr_buffer_create_participant_ref(...)                                                                 \
+    UXR_PICK_BY_COUNT_(__VA_ARGS__, (uxr_buffer_create_participant_ref), uxr_buffer_create_participant_ref_seed, \
+                       uxr_too_few_arguments)(__VA_ARGS__)
+#define uxr_buffer_reply(...)                                                                                  \
+    UXR_PICK_BY_COUNT_(__VA_ARGS__, (uxr_buffer_reply), uxr_buffer_reply_last, uxr_too_few_arguments)(__VA_ARGS__)
+/* The seed's participant by reference has no domain argument: domain 0. */
+uint16_t uxr_buffer_create_participant_ref_seed(uxrSession* session, uxrStreamId stream_id, uxrObjectId object_id,
+                                                const char* ref, uint8_t mode);
 
 /* ---- utilities ------------------------------------------------------------------------------------------ */
 uxrStreamId uxr_stream_id(uint8_t index, uxrStreamType type, uxrStreamDirection direction);
