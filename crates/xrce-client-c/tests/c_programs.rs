@@ -3,8 +3,9 @@
 //! `-fsanitize=address,undefined`, then run; those that talk to an agent get ours (`-m ced`, in this process,
 //! on 127.0.0.1).
 
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 use xrce_agent::agent::AgentInstance;
@@ -96,6 +97,30 @@ fn run(name: &str, args: &[&str]) {
     }
 }
 
+/// Runs `serial` plainly and sanitized: it prints the two pseudoterminals it opened, our agent serves them
+/// (`multiserial`), then it must exit 0.
+fn run_over_serial_lines() {
+    for sanitize in [false, true] {
+        let exe = compile("serial", sanitize);
+        let mut child =
+            Command::new(&exe).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("C test starts");
+        let mut out = BufReader::new(child.stdout.take().expect("stdout"));
+        let mut devs = String::new();
+        out.read_line(&mut devs).expect("device names");
+        let devs = devs.trim().to_string();
+        let mut agent = AgentInstance::create(["xrce-agent", "multiserial", "--devs", &devs, "-m", "ced", "-v", "0"])
+            .expect("agent");
+        let mut rest = String::new();
+        out.read_to_string(&mut rest).expect("output");
+        let status = child.wait().expect("C test ends");
+        let mut err = String::new();
+        child.stderr.take().expect("stderr").read_to_string(&mut err).expect("stderr");
+        agent.stop().expect("agent stops");
+        println!("serial{}: {rest}", if sanitize { " (sanitized)" } else { "" });
+        assert!(status.success(), "serial{} failed ({status}):\n{rest}{err}", if sanitize { " sanitized" } else { "" });
+    }
+}
+
 /// Runs `name IP PORT` against our agent.
 fn run_with_agent(name: &str) {
     let mut agent = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
@@ -113,6 +138,11 @@ fn ping_time_references_deletion_custom_and_tcp_transports() {
     run("misc", &["127.0.0.1", &udp_port, &tcp_port]);
     udp.stop().expect("agent stops");
     tcp.stop().expect("agent stops");
+}
+
+#[test]
+fn serial_transport_and_framed_custom_transport_over_pseudoterminals() {
+    run_over_serial_lines();
 }
 
 #[test]
