@@ -11,12 +11,13 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 const HEADER: &str = "include/uxr/client/client.h";
-const OPAQUE: [(&str, &str); 5] = [
+const OPAQUE: [(&str, &str); 6] = [
     ("UXR_SESSION_OPAQUE_WORDS", "SESSION_WORDS"),
     ("UXR_UDP_TRANSPORT_OPAQUE_WORDS", "UDP_WORDS"),
     ("UXR_TCP_TRANSPORT_OPAQUE_WORDS", "TCP_WORDS"),
     ("UXR_SERIAL_TRANSPORT_OPAQUE_WORDS", "SERIAL_WORDS"),
     ("UXR_CUSTOM_TRANSPORT_OPAQUE_WORDS", "CUSTOM_WORDS"),
+    ("UXR_CAN_TRANSPORT_OPAQUE_WORDS", "CAN_WORDS"),
 ];
 
 fn main() {

@@ -6,7 +6,7 @@
 use crate::abi::{uxrDeliveryControl, uxrObjectId, uxrQoS_t, uxrStreamId, SampleIdentity, TransportLocator};
 use crate::comm::uxrCommunication;
 use crate::session::uxrSession;
-use crate::transport::{uxrCustomTransport, uxrSerialTransport, uxrTCPTransport, uxrUDPTransport};
+use crate::transport::{uxrCANTransport, uxrCustomTransport, uxrSerialTransport, uxrTCPTransport, uxrUDPTransport};
 use crate::ucdr::buffer::ucdrBuffer;
 
 include!(concat!(env!("OUT_DIR"), "/layout.rs"));

@@ -1,6 +1,8 @@
 //! The transports of seed 000: each C structure holds a Rust transport in its `_opaque` words and exposes it
 //! to sessions through its `comm` function table.
 
+#[cfg(all(feature = "can", target_os = "linux"))]
+mod can;
 mod custom;
 #[cfg(feature = "std")]
 mod discovery;
@@ -13,7 +15,7 @@ pub use custom::uxrCustomTransport;
 use xrce_client::{Transport, TransportError};
 
 use crate::comm::{fill, uxrCommunication};
-use crate::layout::{SERIAL_WORDS, TCP_WORDS, UDP_WORDS};
+use crate::layout::{CAN_WORDS, SERIAL_WORDS, TCP_WORDS, UDP_WORDS};
 
 macro_rules! os_transport {
     ($(#[$m:meta])* $name:ident, $words:ident) => {
@@ -40,6 +42,10 @@ os_transport!(
 os_transport!(
     /// `uxrSerialTransport`.
     uxrSerialTransport, SERIAL_WORDS
+);
+os_transport!(
+    /// `uxrCANTransport`.
+    uxrCANTransport, CAN_WORDS
 );
 
 /// A transport that may have been closed (`uxr_close_*_transport`).

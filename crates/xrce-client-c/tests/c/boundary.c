@@ -45,6 +45,10 @@ int main(void) {
     CHECK(!uxr_init_udp_transport(NULL, UXR_IPv4, "127.0.0.1", "8888"));
     CHECK(!uxr_init_udp_transport(&udp, UXR_IPv4, NULL, "8888"));
     CHECK(!uxr_init_udp_transport(&udp, UXR_IPv4, "127.0.0.1", "not a port"));
+    uxrCANTransport can;
+    CHECK(!uxr_init_can_transport(&can, "no-such-can0", 0x123));
+    CHECK(!uxr_init_can_transport(&can, "vcan0", 0x20000000)); /* not a 29-bit identifier */
+    CHECK(!uxr_init_can_transport(NULL, "vcan0", 0x123));
     uxrCustomTransport custom;
     memset(&custom, 0, sizeof(custom));
     CHECK(!uxr_init_custom_transport(&custom, NULL)); /* no callbacks set */

@@ -25,6 +25,7 @@ extern "C" {
 #define UXR_CONFIG_TCP_TRANSPORT_MTU 512
 #define UXR_CONFIG_SERIAL_TRANSPORT_MTU 512
 #define UXR_CONFIG_CUSTOM_TRANSPORT_MTU 512
+#define UXR_CONFIG_CAN_TRANSPORT_MTU 63
 #define UXR_CONFIG_MAX_OUTPUT_BEST_EFFORT_STREAMS 1
 #define UXR_CONFIG_MAX_OUTPUT_RELIABLE_STREAMS 1
 #define UXR_CONFIG_MAX_INPUT_BEST_EFFORT_STREAMS 1
@@ -36,6 +37,7 @@ extern "C" {
 #define UCLIENT_PROFILE_TCP 1
 #define UCLIENT_PROFILE_SERIAL 1
 #define UCLIENT_PROFILE_CUSTOM_TRANSPORT 1
+#define UCLIENT_PROFILE_CAN 1
 #define UCLIENT_PROFILE_DISCOVERY 1
 
 /* Sizes of the opaque storage, in 8-byte words (build.rs reads these; src/layout.rs checks them). */
@@ -44,6 +46,7 @@ extern "C" {
 #define UXR_TCP_TRANSPORT_OPAQUE_WORDS 112
 #define UXR_SERIAL_TRANSPORT_OPAQUE_WORDS 96
 #define UXR_CUSTOM_TRANSPORT_OPAQUE_WORDS 96
+#define UXR_CAN_TRANSPORT_OPAQUE_WORDS 4
 
 /* ---- constants ---------------------------------------------------------------------------------------- */
 #define UXR_TIMEOUT_INF (-1)
@@ -325,6 +328,12 @@ typedef struct uxrSerialTransport {
     uxrCommunication comm;
 } uxrSerialTransport;
 
+/* CAN FD over SocketCAN (Linux): messages up to UXR_CONFIG_CAN_TRANSPORT_MTU bytes, one per frame. */
+typedef struct uxrCANTransport {
+    uint64_t _opaque[UXR_CAN_TRANSPORT_OPAQUE_WORDS];
+    uxrCommunication comm;
+} uxrCANTransport;
+
 struct uxrCustomTransport;
 typedef bool (*open_custom_func)(struct uxrCustomTransport* transport);
 typedef bool (*close_custom_func)(struct uxrCustomTransport* transport);
@@ -348,6 +357,8 @@ bool uxr_init_udp_transport(uxrUDPTransport* transport, uxrIpProtocol ip_protoco
 bool uxr_close_udp_transport(uxrUDPTransport* transport);
 bool uxr_init_tcp_transport(uxrTCPTransport* transport, uxrIpProtocol ip_protocol, const char* ip, const char* port);
 bool uxr_close_tcp_transport(uxrTCPTransport* transport);
+bool uxr_init_can_transport(uxrCANTransport* transport, const char* dev, uint32_t can_id);
+bool uxr_close_can_transport(uxrCANTransport* transport);
 bool uxr_init_serial_transport(uxrSerialTransport* transport, const int fd, uint8_t remote_addr, uint8_t local_addr);
 bool uxr_close_serial_transport(uxrSerialTransport* transport);
 void uxr_set_custom_transport_callbacks(uxrCustomTransport* transport, bool framing, open_custom_func open,
@@ -393,6 +404,7 @@ UXR_ABI(uxrSession, UXR_SESSION_OPAQUE_WORDS * 8, 8)
 UXR_ABI(uxrUDPTransport, UXR_UDP_TRANSPORT_OPAQUE_WORDS * 8 + 4 * UXR_PTR, 8)
 UXR_ABI(uxrTCPTransport, UXR_TCP_TRANSPORT_OPAQUE_WORDS * 8 + 4 * UXR_PTR, 8)
 UXR_ABI(uxrSerialTransport, UXR_SERIAL_TRANSPORT_OPAQUE_WORDS * 8 + 4 * UXR_PTR, 8)
+UXR_ABI(uxrCANTransport, UXR_CAN_TRANSPORT_OPAQUE_WORDS * 8 + 4 * UXR_PTR, 8)
 UXR_ABI(uxrCustomTransport, UXR_CUSTOM_TRANSPORT_OPAQUE_WORDS * 8 + 10 * UXR_PTR, 8)
 
 #ifdef __cplusplus
