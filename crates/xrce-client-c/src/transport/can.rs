@@ -5,7 +5,7 @@ use core::ptr::addr_of_mut;
 
 use xrce_client::transport::{CanTransport, SocketCan};
 
-use super::{close, fits, install, uxrCANTransport, Opened};
+use super::{fits, install, uxrCANTransport, Opened};
 use crate::entities::text;
 use crate::layout::CAN_WORDS;
 
@@ -37,15 +37,7 @@ pub unsafe extern "C" fn uxr_init_can_transport(
     true
 }
 
-/// `uxr_close_can_transport`: closes the socket.
-///
-/// # Safety
-/// `transport` null or initialised by `uxr_init_can_transport`.
-#[no_mangle]
-pub unsafe extern "C" fn uxr_close_can_transport(transport: *mut uxrCANTransport) -> bool {
-    if transport.is_null() {
-        return false;
-    }
-    // SAFETY: contract.
-    unsafe { close(addr_of_mut!((*transport).opaque).cast::<Opened<Can>>()) }
-}
+super::close_function!(
+    /// `uxr_close_can_transport`: closes the socket.
+    uxr_close_can_transport, uxrCANTransport, Can
+);

@@ -66,6 +66,28 @@ impl<T: Transport> Transport for Opened<T> {
     }
 }
 
+/// `uxr_close_*_transport` for a structure whose opaque words hold an `Opened<$rust>`: drops the transport
+/// (closing its socket or file); `false` for null or a transport already closed.
+#[cfg(feature = "std")]
+macro_rules! close_function {
+    ($(#[$m:meta])* $name:ident, $c:ty, $rust:ty) => {
+        $(#[$m])*
+        ///
+        /// # Safety
+        /// `transport` null or initialised by its init function.
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(transport: *mut $c) -> bool {
+            if transport.is_null() {
+                return false;
+            }
+            // SAFETY: contract.
+            unsafe { $crate::transport::close(core::ptr::addr_of_mut!((*transport).opaque).cast::<$crate::transport::Opened<$rust>>()) }
+        }
+    };
+}
+#[cfg(feature = "std")]
+pub(crate) use close_function;
+
 /// Puts `transport` into the opaque words at `storage` and points `comm` at it.
 ///
 /// # Safety

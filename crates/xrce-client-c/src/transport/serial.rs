@@ -6,7 +6,7 @@ use std::os::fd::FromRawFd;
 
 use xrce_client::transport::SerialTransport;
 
-use super::{close, fits, install, uxrSerialTransport, Opened};
+use super::{fits, install, uxrSerialTransport, Opened};
 use crate::layout::SERIAL_WORDS;
 
 const _: () = assert!(fits::<SerialTransport>(SERIAL_WORDS), "UXR_SERIAL_TRANSPORT_OPAQUE_WORDS too small");
@@ -37,15 +37,7 @@ pub unsafe extern "C" fn uxr_init_serial_transport(
     true
 }
 
-/// `uxr_close_serial_transport`: closes the descriptor.
-///
-/// # Safety
-/// `transport` null or initialised by `uxr_init_serial_transport`.
-#[no_mangle]
-pub unsafe extern "C" fn uxr_close_serial_transport(transport: *mut uxrSerialTransport) -> bool {
-    if transport.is_null() {
-        return false;
-    }
-    // SAFETY: contract.
-    unsafe { close(addr_of_mut!((*transport).opaque).cast::<Opened<SerialTransport>>()) }
-}
+super::close_function!(
+    /// `uxr_close_serial_transport`: closes the descriptor.
+    uxr_close_serial_transport, uxrSerialTransport, SerialTransport
+);

@@ -6,7 +6,7 @@ use core::ptr::addr_of_mut;
 use xrce_client::transport::{IpProtocol, TcpTransport, UdpTransport};
 use xrce_client::TransportError;
 
-use super::{close, fits, install, uxrTCPTransport, uxrUDPTransport, Opened};
+use super::{fits, install, uxrTCPTransport, uxrUDPTransport, Opened};
 use crate::entities::text;
 use crate::layout::{TCP_WORDS, UDP_WORDS};
 
@@ -55,18 +55,12 @@ macro_rules! socket_transport {
             true
         }
 
-        #[doc = concat!("`", stringify!($close), "`: closes the socket.")]
-        ///
-        /// # Safety
-        /// `transport` null or initialised by the init function.
-        #[no_mangle]
-        pub unsafe extern "C" fn $close(transport: *mut $c) -> bool {
-            if transport.is_null() {
-                return false;
-            }
-            // SAFETY: contract.
-            unsafe { close(addr_of_mut!((*transport).opaque).cast::<Opened<$rust>>()) }
-        }
+        super::close_function!(
+            #[doc = concat!("`", stringify!($close), "`: closes the socket.")]
+            $close,
+            $c,
+            $rust
+        );
     };
 }
 
