@@ -25,6 +25,30 @@ static void on_status(uxrSession* session, uxrObjectId object_id, uint16_t reque
     last_status = status;
 }
 
+/* ---- discovery: the agent at a known address answers; its locator converts back to text ---- */
+static int agents_found = 0;
+static bool on_agent(const TransportLocator* locator, void* args) {
+    char ip[64];
+    uint16_t port = 0;
+    uxrIpProtocol protocol = UXR_IPv6;
+    if (uxr_locator_to_ip(locator, ip, sizeof(ip), &port, &protocol) && strcmp(ip, "127.0.0.1") == 0
+        && port == *(uint16_t*)args && protocol == UXR_IPv4) {
+        agents_found++;
+    }
+    return true; /* stop at the first */
+}
+
+static void discovery(const char* ip, const char* port) {
+    TransportLocator agent;
+    uint16_t agent_port = (uint16_t)atoi(port);
+    CHECK(uxr_ip_to_locator(ip, agent_port, UXR_IPv4, &agent));
+    CHECK(!uxr_ip_to_locator("not an address", agent_port, UXR_IPv4, &agent) && !uxr_ip_to_locator(ip, 1, UXR_IPv4, NULL));
+    CHECK(uxr_discovery_agents(3, 200, on_agent, &agent_port, &agent, 1));
+    CHECK(agents_found == 1);
+    char tiny[4];
+    CHECK(!uxr_locator_to_ip(&agent, tiny, sizeof(tiny), NULL, NULL));
+}
+
 static void over_udp(const char* ip, const char* port) {
     static Node node;
     CHECK(uxr_init_udp_transport(&node.transport, UXR_IPv4, ip, port));
@@ -126,6 +150,7 @@ int main(int argc, char** argv) {
         return 2;
     }
     over_udp(argv[1], argv[2]);
+    discovery(argv[1], argv[2]);
     over_custom(argv[1], argv[2]);
     over_tcp(argv[1], argv[3]);
     printf("%s\n", failures == 0 ? "all checks passed" : "FAILED");
