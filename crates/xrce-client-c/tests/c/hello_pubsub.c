@@ -105,8 +105,21 @@ int main(int argc, char** argv) {
         uxr_run_session_until_data(&subscriber.session, 50);
     }
     printf("received %u of %u samples, %s\n", received, SAMPLES, in_order ? "in order" : "NOT in order");
+    uint16_t cancel = uxr_buffer_cancel_data(&subscriber.session, subscriber.out, reader);
+    bool cancelled = cancel != UXR_INVALID_REQUEST_ID && uxr_run_session_until_confirm_delivery(&subscriber.session, 1000);
+    /* a sample after the cancellation is not delivered */
+    HelloWorld late = {SAMPLES, "Hello DDS world!"};
+    ucdrBuffer late_ub;
+    uxr_prepare_output_stream(&publisher.session, publisher.out, writer, &late_ub, HelloWorld_size_of_topic(&late, 0));
+    HelloWorld_serialize_topic(&late_ub, &late);
+    uxr_run_session_until_confirm_delivery(&publisher.session, 1000);
+    uxr_run_session_time(&subscriber.session, 100);
+    cancelled &= received == SAMPLES;
+    /* nothing more comes: the other run functions return after their timeout */
+    bool quiet = !uxr_run_session_until_timeout(&subscriber.session, 50);
+    uxr_run_session_timeout(&subscriber.session, 50);
 
     node_stop(&publisher);
     node_stop(&subscriber);
-    return received == SAMPLES && count == SAMPLES && in_order ? 0 : 1;
+    return received == SAMPLES && count == SAMPLES && in_order && cancelled && quiet ? 0 : 1;
 }
