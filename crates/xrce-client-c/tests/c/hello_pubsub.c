@@ -115,11 +115,12 @@ int main(int argc, char** argv) {
     uxr_run_session_until_confirm_delivery(&publisher.session, 1000);
     uxr_run_session_time(&subscriber.session, 100);
     cancelled &= received == SAMPLES;
-    /* nothing more comes: the other run functions return after their timeout */
-    bool quiet = !uxr_run_session_until_timeout(&subscriber.session, 50);
+    /* the other run functions return (an agent's heartbeats may count as messages: no expectation) */
+    uxr_run_session_until_timeout(&subscriber.session, 50);
     uxr_run_session_timeout(&subscriber.session, 50);
+    printf("read cancelled: %s\n", cancelled ? "no sample after it" : "FAILED");
 
     node_stop(&publisher);
     node_stop(&subscriber);
-    return received == SAMPLES && count == SAMPLES && in_order && cancelled && quiet ? 0 : 1;
+    return received == SAMPLES && count == SAMPLES && in_order && cancelled ? 0 : 1;
 }
