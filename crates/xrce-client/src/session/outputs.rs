@@ -73,6 +73,12 @@ fn encode_sample_identity(s: &SampleIdentity) -> [u8; 24] {
 }
 
 impl<'s, 'a> Outputs<'s, 'a> {
+    /// The same outputs for a shorter borrow, for the functions taking `self` by value
+    /// ([`prepare_output_stream`](Self::prepare_output_stream)) when only `&mut Outputs` is at hand (a callback).
+    pub fn reborrow(&mut self) -> Outputs<'_, 'a> {
+        Outputs { last_request_id: self.last_request_id, best_effort: self.best_effort, reliable: self.reliable }
+    }
+
     /// Hands out the next request id (10, 11, … 65535, 10, …).
     fn next_request_id(&mut self) -> u16 {
         let next = request_after(*self.last_request_id);

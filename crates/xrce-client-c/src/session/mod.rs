@@ -1,0 +1,177 @@
+//! `uxrSession`: the Rust blocking session kept inside the C structure, and the functions every other part
+//! uses to reach it safely from a C pointer.
+
+mod fragmented;
+mod hooks;
+mod run;
+mod streams;
+
+use core::cell::Cell;
+use core::mem::{align_of, size_of};
+use core::ptr::{addr_of, addr_of_mut};
+
+use xrce_client::{Outputs, Session, SessionState, WriteAccess};
+
+use crate::clock::{clock, SysClock};
+use crate::comm::{uxrCommunication, Comm};
+use crate::layout::SESSION_WORDS;
+pub use hooks::Hooks;
+
+/// Streams of each kind (`UXR_CONFIG_MAX_*_STREAMS`) and the message size of the session.
+const OBE: usize = 1;
+const ORE: usize = 1;
+const IBE: usize = 1;
+const IRE: usize = 1;
+const MTU: usize = 512;
+
+/// The Rust session behind a `uxrSession`.
+pub type Inner = Session<'static, Comm, SysClock, Hooks, OBE, ORE, IBE, IRE, MTU>;
+
+/// Outputs lent to a callback, seen from outside the callback.
+type CallbackOutputs = Cell<*mut Outputs<'static, 'static>>;
+
+/// `uxrSession`: storage the C program declares.
+#[repr(C)]
+#[allow(non_camel_case_types)]
+pub struct uxrSession {
+    _opaque: [u64; SESSION_WORDS],
+}
+
+/// Marks storage that `uxr_init_session` filled (with the storage's own address beside it).
+const MAGIC: u64 = 0x7872_6365_2d72_7331;
+
+/// What lives in a `uxrSession`.
+struct Slot {
+    magic: u64,
+    this: *const uxrSession,
+    /// While a callback runs: the outputs it may write to (a replier answering from `on_request`).
+    in_callback: CallbackOutputs,
+    /// While a call holds the Rust session: a callback calling back into a running function gets its error value.
+    busy: Cell<bool>,
+    /// The identity of the last request received (`uxr_buffer_reply` in the seed's form answers it).
+    last_request: Cell<Option<crate::abi::SampleIdentity>>,
+    /// A `uxr_prepare_output_stream_fragmented` write in progress.
+    fragment: fragmented::Fragment,
+    /// While its window is pushed (the flush callback may run the session, which must not push it again).
+    pushing: Cell<bool>,
+    session: Inner,
+}
+
+const _: () = assert!(size_of::<Slot>() <= size_of::<uxrSession>(), "UXR_SESSION_OPAQUE_WORDS too small");
+const _: () = assert!(align_of::<Slot>() <= align_of::<uxrSession>());
+
+/// The slot of an initialised session, `None` for null or storage `uxr_init_session` did not fill.
+///
+/// # Safety
+/// `session` is null or points to a `uxrSession` (readable memory of its size).
+unsafe fn slot(session: *mut uxrSession) -> Option<*mut Slot> {
+    let slot = session.cast::<Slot>();
+    if slot.is_null() {
+        return None;
+    }
+    // SAFETY: `slot` points to readable memory of the session's size (contract), which holds these fields.
+    let (magic, this) = unsafe { (addr_of!((*slot).magic).read(), addr_of!((*slot).this).read()) };
+    (magic == MAGIC && this == session.cast_const()).then_some(slot)
+}
+
+/// Runs `f` on the Rust session of `session`; `fallback` for a null, uninitialised or busy session (a callback
+/// calling a `run_session` function, say).
+///
+/// # Safety
+/// `session` is null or points to a `uxrSession`.
+pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnOnce(&mut Inner) -> R) -> R {
+    // SAFETY: contract.
+    let Some(slot) = (unsafe { self::slot(session) }) else { return fallback };
+    // SAFETY: an initialised slot; `busy` is only ever reached through shared references.
+    let busy = unsafe { &*addr_of!((*slot).busy) };
+    if busy.replace(true) {
+        return fallback;
+    }
+    // SAFETY: not busy, so no other reference to the session exists; callbacks reach only `in_callback` and
+    // `busy` (other fields) while this one is live.
+    let inner = unsafe { &mut *addr_of_mut!((*slot).session) };
+    inner.callbacks().session = session;
+    let result = f(inner);
+    busy.set(false);
+    result
+}
+
+/// Runs `f` on the output streams of `session`: inside a callback those lent to it, otherwise the session's
+/// (`fallback` once the session is deleted).
+///
+/// # Safety
+/// `session` is null or points to a `uxrSession`.
+pub unsafe fn with_outputs<R>(
+    session: *mut uxrSession,
+    fallback: R,
+    f: impl for<'x> FnOnce(Outputs<'x, 'static>) -> R,
+) -> R {
+    // SAFETY: contract.
+    let Some(slot) = (unsafe { self::slot(session) }) else { return fallback };
+    // SAFETY: an initialised slot; `in_callback` is only reached through shared references.
+    let lent = unsafe { &*addr_of!((*slot).in_callback) }.get();
+    // SAFETY: non-null only while a callback runs, during which the outputs it points to are borrowed for the
+    // callback and reached by nothing else.
+    if let Some(out) = unsafe { lent.as_mut() } {
+        return f(out.reborrow());
+    }
+    // SAFETY: contract.
+    unsafe {
+        with_session(session, None, |s| {
+            (!matches!(s.core().state(), SessionState::Deleted | SessionState::Deleting)).then(|| f(s.outputs()))
+        })
+    }
+    .unwrap_or(fallback)
+}
+
+/// The identity of the last request `session` received.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+pub unsafe fn last_request(session: *mut uxrSession) -> Option<crate::abi::SampleIdentity> {
+    // SAFETY: contract.
+    let slot = unsafe { slot(session) }?;
+    // SAFETY: an initialised slot; the field is only reached through shared references.
+    unsafe { &*addr_of!((*slot).last_request) }.get()
+}
+
+/// `uxr_init_session`: a session for client `key` over `comm`, which must outlive it. Reconnection is off, as
+/// in eProsima's client (programs carry their own ping-and-recreate logic).
+///
+/// # Safety
+/// `session` null or writable storage of a `uxrSession`; `comm` null or a communication that outlives the session.
+#[no_mangle]
+pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut uxrCommunication, key: u32) {
+    if session.is_null() || comm.is_null() {
+        return;
+    }
+    // SAFETY: contract.
+    if let Some(old) = unsafe { slot(session) } {
+        // SAFETY: an initialised slot; `busy` is only reached through shared references.
+        if unsafe { &*addr_of!((*old).busy) }.get() {
+            return;
+        }
+        // SAFETY: the storage holds a session initialised here and not in use: drop it (its heap bookkeeping).
+        unsafe { core::ptr::drop_in_place(old) };
+    }
+    let slot = session.cast::<Slot>();
+    // SAFETY: only the fields' addresses are taken, inside the storage.
+    let (in_callback, last_request) = unsafe { (addr_of!((*slot).in_callback), addr_of!((*slot).last_request)) };
+    let hooks = Hooks::new(session, in_callback, last_request);
+    let inner = Session::<Comm, SysClock, (), OBE, ORE, IBE, IRE, MTU>::with_clock(Comm(comm), clock(), key)
+        .with_reconnect(None)
+        .with_callbacks(hooks);
+    let value = Slot {
+        magic: MAGIC,
+        this: session,
+        in_callback: Cell::new(core::ptr::null_mut()),
+        busy: Cell::new(false),
+        last_request: Cell::new(None),
+        fragment: fragmented::Fragment::idle(),
+        pushing: Cell::new(false),
+        session: inner,
+    };
+    // SAFETY: `slot` is writable storage large and aligned enough (checked above at compile time); `write`
+    // does not drop what was there.
+    unsafe { slot.write(value) };
+}

@@ -1,0 +1,43 @@
+//! `uxrCANTransport`: CAN FD over SocketCAN (Linux), the Rust client's `CanTransport` (docs/canfd.md).
+
+use core::ffi::c_char;
+use core::ptr::addr_of_mut;
+
+use xrce_client::transport::{CanTransport, SocketCan};
+
+use super::{fits, install, uxrCANTransport, Opened};
+use crate::entities::text;
+use crate::layout::CAN_WORDS;
+
+type Can = CanTransport<SocketCan>;
+
+const _: () = assert!(fits::<Can>(CAN_WORDS), "UXR_CAN_TRANSPORT_OPAQUE_WORDS too small");
+
+/// `uxr_init_can_transport`: a CAN FD raw socket on interface `dev` under the 29-bit identifier `can_id`.
+///
+/// # Safety
+/// `transport` null or writable, not moved while in use; `dev` null or NUL-terminated.
+#[no_mangle]
+pub unsafe extern "C" fn uxr_init_can_transport(
+    transport: *mut uxrCANTransport,
+    dev: *const c_char,
+    can_id: u32,
+) -> bool {
+    if transport.is_null() {
+        return false;
+    }
+    // SAFETY: contract.
+    let Some(dev) = (unsafe { text(dev) }) else { return false };
+    let Ok(can) = Can::new(dev, can_id) else { return false };
+    // SAFETY: non-null, writable (contract); the opaque words fit (checked above) and are 8-aligned.
+    unsafe {
+        let storage = addr_of_mut!((*transport).opaque).cast::<Opened<Can>>();
+        install(storage, addr_of_mut!((*transport).comm), can);
+    }
+    true
+}
+
+super::close_function!(
+    /// `uxr_close_can_transport`: closes the socket.
+    uxr_close_can_transport, uxrCANTransport, Can
+);

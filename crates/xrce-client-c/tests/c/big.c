@@ -1,0 +1,112 @@
+/* Continuous fragmentation: a 20,000-byte sample written through uxr_prepare_output_stream_fragmented into a
+ * reliable history of 4 x 512 B, the flush callback running the session whenever the history is full; the
+ * subscriber receives it whole. Entities by XML. Usage: big IP PORT [SETTLE_MS] (the last one ignored: the
+ * reliable reader gets the sample whenever it matched). */
+#include "node.h"
+
+#include <string.h>
+
+#define PAYLOAD 20000
+#define INPUT_HISTORY 64
+#define INPUT_SIZE (UXR_CONFIG_UDP_TRANSPORT_MTU * INPUT_HISTORY)
+
+static Node subscriber, publisher;
+static uint8_t subscriber_input[INPUT_SIZE];
+static uint8_t payload[PAYLOAD];
+static uint8_t received[PAYLOAD];
+static uint32_t received_len = 0;
+static int flushes = 0;
+
+static void on_topic(uxrSession* session, uxrObjectId object_id, uint16_t request_id, uxrStreamId stream_id,
+                     struct ucdrBuffer* ub, uint16_t length, void* args) {
+    (void)session; (void)object_id; (void)request_id; (void)stream_id; (void)length; (void)args;
+    uint32_t len = 0;
+    if (ucdr_deserialize_sequence_uint8_t(ub, received, sizeof(received), &len)) {
+        received_len = len;
+    }
+}
+
+static bool flush(uxrSession* session) {
+    flushes++;
+    bool confirmed = uxr_run_session_until_confirm_delivery(session, 1000);
+    uxr_run_session_time(&subscriber.session, 1);
+    return confirmed;
+}
+
+static const char* participant_xml =
+    "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
+static const char* topic_xml = "<dds><topic><name>BigTopic</name><dataType>Big</dataType></topic></dds>";
+static const char* writer_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>BigTopic</name>"
+                                "<dataType>Big</dataType></topic></data_writer></dds>";
+static const char* reader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>BigTopic</name>"
+                                "<dataType>Big</dataType></topic></data_reader></dds>";
+
+static bool create(Node* node, bool writer) {
+    uxrObjectId participant = uxr_object_id(1, UXR_PARTICIPANT_ID);
+    uxrObjectId topic = uxr_object_id(1, UXR_TOPIC_ID);
+    uxrObjectId parent = uxr_object_id(1, writer ? UXR_PUBLISHER_ID : UXR_SUBSCRIBER_ID);
+    uxrObjectId endpoint = uxr_object_id(1, writer ? UXR_DATAWRITER_ID : UXR_DATAREADER_ID);
+    uint16_t r[4];
+    r[0] = uxr_buffer_create_participant_xml(&node->session, node->out, participant, 0, participant_xml, UXR_REPLACE);
+    r[1] = uxr_buffer_create_topic_xml(&node->session, node->out, topic, participant, topic_xml, UXR_REPLACE);
+    r[2] = writer ? uxr_buffer_create_publisher_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE)
+                  : uxr_buffer_create_subscriber_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE);
+    r[3] = writer ? uxr_buffer_create_datawriter_xml(&node->session, node->out, endpoint, parent, writer_xml, UXR_REPLACE)
+                  : uxr_buffer_create_datareader_xml(&node->session, node->out, endpoint, parent, reader_xml, UXR_REPLACE);
+    return node_statuses_ok(node, r, 4, writer ? "writer" : "reader");
+}
+
+int main(int argc, char** argv) {
+    if (argc < 3) {
+        return 2;
+    }
+    for (size_t i = 0; i < PAYLOAD; i++) {
+        payload[i] = (uint8_t)(i * 7 + i / 251);
+    }
+    if (!node_start_with(&subscriber, argv[1], argv[2], 0xB1600001, subscriber_input, INPUT_SIZE, INPUT_HISTORY)) {
+        return 1;
+    }
+    /* the publisher's output history: 4 slots of 512 B, a fifth of the sample */
+    if (!uxr_init_udp_transport(&publisher.transport, UXR_IPv4, argv[1], argv[2])) {
+        return 1;
+    }
+    uxr_init_session(&publisher.session, &publisher.transport.comm, 0xB1600002);
+    if (!uxr_create_session(&publisher.session)) {
+        return 1;
+    }
+    publisher.out = uxr_create_output_reliable_stream(&publisher.session, publisher.output, 4 * 512, 4);
+    publisher.in = uxr_create_input_reliable_stream(&publisher.session, publisher.input, NODE_BUFFER, NODE_HISTORY);
+    uxr_set_topic_callback(&subscriber.session, on_topic, NULL);
+    if (!create(&subscriber, false) || !create(&publisher, true)) {
+        return 1;
+    }
+    uxrDeliveryControl control = {UXR_MAX_SAMPLES_UNLIMITED, 0, 0, 0};
+    uxr_buffer_request_data(&subscriber.session, subscriber.out, uxr_object_id(1, UXR_DATAREADER_ID), subscriber.in, &control);
+    uxr_run_session_until_confirm_delivery(&subscriber.session, 1000);
+
+    ucdrBuffer ub;
+    uint32_t size = 4 + PAYLOAD;
+    uint16_t request = uxr_prepare_output_stream_fragmented(&publisher.session, publisher.out,
+                                                            uxr_object_id(1, UXR_DATAWRITER_ID), &ub, size, flush);
+    if (request == UXR_INVALID_REQUEST_ID || !ucdr_serialize_sequence_uint8_t(&ub, payload, PAYLOAD) || ub.error) {
+        fprintf(stderr, "fragmented write failed\n");
+        return 1;
+    }
+    /* a second write while one is open is refused; best-effort streams are refused */
+    ucdrBuffer other;
+    if (uxr_prepare_output_stream_fragmented(&publisher.session, publisher.out, uxr_object_id(1, UXR_DATAWRITER_ID),
+                                             &other, 8, flush) != UXR_INVALID_REQUEST_ID) {
+        return 1;
+    }
+    bool confirmed = uxr_run_session_until_confirm_delivery(&publisher.session, 3000);
+    for (int round = 0; round < 200 && received_len == 0; round++) {
+        uxr_run_session_time(&subscriber.session, 10);
+        uxr_run_session_time(&publisher.session, 1);
+    }
+    bool same = received_len == PAYLOAD && memcmp(payload, received, PAYLOAD) == 0;
+    printf("sample of %u bytes received %s after %d flushes, delivery %s\n", received_len,
+           same ? "intact" : "DIFFERENT", flushes, confirmed ? "confirmed" : "NOT confirmed");
+    node_stop(&publisher);
+    node_stop(&subscriber);
+    return same && confirmed && flushes > 0 ? 0 : 1;
+}

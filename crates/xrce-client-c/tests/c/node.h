@@ -1,0 +1,64 @@
+/* A session over UDP with one reliable output and one reliable input stream, as the seed's examples set
+ * one up; and the wait for a list of creation statuses. */
+#ifndef XRCE_C_TEST_NODE_H
+#define XRCE_C_TEST_NODE_H
+
+#include <uxr/client/client.h>
+
+#include <stdio.h>
+
+#define NODE_HISTORY 8
+#define NODE_BUFFER (UXR_CONFIG_UDP_TRANSPORT_MTU * NODE_HISTORY)
+
+typedef struct Node {
+    uxrUDPTransport transport;
+    uxrSession session;
+    uint8_t output[NODE_BUFFER];
+    uint8_t input[NODE_BUFFER];
+    uxrStreamId out;
+    uxrStreamId in;
+} Node;
+
+/* Opens the transport, creates the session and both streams; `input`/`input_size`/`input_history` override
+ * the input stream's memory when non-null (a subscriber of large samples). */
+static inline bool node_start_with(Node* node, const char* ip, const char* port, uint32_t key, uint8_t* input,
+                            size_t input_size, size_t input_history) {
+    if (!uxr_init_udp_transport(&node->transport, UXR_IPv4, ip, port)) {
+        fprintf(stderr, "udp transport to %s:%s\n", ip, port);
+        return false;
+    }
+    uxr_init_session(&node->session, &node->transport.comm, key);
+    if (!uxr_create_session(&node->session)) {
+        fprintf(stderr, "create session %08x\n", key);
+        return false;
+    }
+    node->out = uxr_create_output_reliable_stream(&node->session, node->output, NODE_BUFFER, NODE_HISTORY);
+    node->in = input ? uxr_create_input_reliable_stream(&node->session, input, input_size, input_history)
+                     : uxr_create_input_reliable_stream(&node->session, node->input, NODE_BUFFER, NODE_HISTORY);
+    return node->out.type == UXR_RELIABLE_STREAM && node->in.type == UXR_RELIABLE_STREAM;
+}
+
+static inline bool node_start(Node* node, const char* ip, const char* port, uint32_t key) {
+    return node_start_with(node, ip, port, key, NULL, 0, 0);
+}
+
+/* Waits for every request of `requests` to be answered OK. */
+static inline bool node_statuses_ok(Node* node, uint16_t* requests, size_t count, const char* what) {
+    uint8_t status[8] = {0};
+    if (count > 8 || !uxr_run_session_until_all_status(&node->session, 3000, requests, status, count)) {
+        fprintf(stderr, "%s:", what);
+        for (size_t i = 0; i < count && i < 8; i++) {
+            fprintf(stderr, " %u", status[i]);
+        }
+        fprintf(stderr, "\n");
+        return false;
+    }
+    return true;
+}
+
+static inline void node_stop(Node* node) {
+    uxr_delete_session(&node->session);
+    uxr_close_udp_transport(&node->transport);
+}
+
+#endif

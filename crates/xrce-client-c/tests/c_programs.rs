@@ -1,0 +1,171 @@
+//! The C tests (tests/c/*.c): each program is compiled against include/ and linked the way a user links
+//! (`-lmicroxrcedds_client -lmicrocdr` and the system's libraries), once plainly and once under
+//! `-fsanitize=address,undefined`, then run; those that talk to an agent get ours (`-m ced`, in this process,
+//! on 127.0.0.1).
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+
+use xrce_agent::agent::AgentInstance;
+
+/// A directory with the library as users link it: `libmicroxrcedds_client.a` and `libmicrocdr.a`.
+///
+/// The test binary is `<target>/<profile>/deps/<name>`; the static library cargo built for this test run is the
+/// newest `deps/libmicroxrcedds_client-<hash>.a` (only `cargo build` copies it to `<profile>/`), and build.rs
+/// wrote `libmicrocdr.a` into `<profile>/`.
+fn library_dir() -> PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let exe = std::env::current_exe().expect("test executable path");
+        let deps = exe.parent().expect("deps directory");
+        let profile = deps.parent().expect("profile directory");
+        let newest = std::fs::read_dir(deps)
+            .expect("deps directory readable")
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .filter(|p| {
+                let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                name.starts_with("libmicroxrcedds_client-") && name.ends_with(".a")
+            })
+            .max_by_key(|p| p.metadata().and_then(|m| m.modified()).ok())
+            .expect("the static library built for this test run");
+        let dir = profile.join("c-tests");
+        std::fs::create_dir_all(&dir).expect("c-tests directory");
+        std::fs::copy(&newest, dir.join("libmicroxrcedds_client.a")).expect("library copied");
+        std::fs::copy(profile.join("libmicrocdr.a"), dir.join("libmicrocdr.a")).expect("libmicrocdr.a copied");
+        dir
+    })
+    .clone()
+}
+
+/// Compiles `tests/c/<name>.c` into an executable; `sanitize` adds ASan and UBSan.
+fn compile(name: &str, sanitize: bool) -> PathBuf {
+    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let lib_dir = library_dir();
+    let exe = lib_dir.join(format!("c-test-{name}{}", if sanitize { "-san" } else { "" }));
+    let compiler = cc::Build::new()
+        .target(env!("XRCE_C_TARGET"))
+        .host(env!("XRCE_C_HOST"))
+        .opt_level(1)
+        .cargo_metadata(false)
+        .warnings(true)
+        .get_compiler();
+    let mut cmd = compiler.to_command();
+    cmd.arg("-std=c11").arg("-Wall").arg("-Wextra").arg("-Werror");
+    if sanitize {
+        cmd.args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]);
+    }
+    cmd.arg(crate_dir.join("tests/c").join(format!("{name}.c")))
+        .arg("-I")
+        .arg(crate_dir.join("include"))
+        .arg("-o")
+        .arg(&exe)
+        .arg("-L")
+        .arg(&lib_dir)
+        .args(["-lmicroxrcedds_client", "-lmicrocdr", "-lpthread", "-ldl", "-lm"]);
+    let out = cmd.output().expect("C compiler runs");
+    assert!(
+        out.status.success(),
+        "compiling {name}.c failed:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    exe
+}
+
+/// Runs `name` plainly and under the sanitizers with `args`; both must exit 0.
+fn run(name: &str, args: &[&str]) {
+    for sanitize in [false, true] {
+        let exe = compile(name, sanitize);
+        let out = Command::new(&exe)
+            .args(args)
+            .env("ASAN_OPTIONS", "abort_on_error=0:detect_leaks=1")
+            .env("UBSAN_OPTIONS", "print_stacktrace=1:halt_on_error=1")
+            .output()
+            .expect("C test runs");
+        println!("{name}{}: {}", if sanitize { " (sanitized)" } else { "" }, String::from_utf8_lossy(&out.stdout));
+        assert!(
+            out.status.success(),
+            "{name}{} failed ({}):\n{}{}",
+            if sanitize { " under the sanitizers" } else { "" },
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+/// Runs `serial` plainly and sanitized: it prints the two pseudoterminals it opened, our agent serves them
+/// (`multiserial`), then it must exit 0.
+fn run_over_serial_lines() {
+    for sanitize in [false, true] {
+        let exe = compile("serial", sanitize);
+        let mut child =
+            Command::new(&exe).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("C test starts");
+        let mut out = BufReader::new(child.stdout.take().expect("stdout"));
+        let mut devs = String::new();
+        out.read_line(&mut devs).expect("device names");
+        let devs = devs.trim().to_string();
+        let mut agent = AgentInstance::create(["xrce-agent", "multiserial", "--devs", &devs, "-m", "ced", "-v", "0"])
+            .expect("agent");
+        let mut rest = String::new();
+        out.read_to_string(&mut rest).expect("output");
+        let status = child.wait().expect("C test ends");
+        let mut err = String::new();
+        child.stderr.take().expect("stderr").read_to_string(&mut err).expect("stderr");
+        agent.stop().expect("agent stops");
+        println!("serial{}: {rest}", if sanitize { " (sanitized)" } else { "" });
+        assert!(status.success(), "serial{} failed ({status}):\n{rest}{err}", if sanitize { " sanitized" } else { "" });
+    }
+}
+
+/// Runs `name IP PORT` against our agent.
+fn run_with_agent(name: &str) {
+    let mut agent = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
+    let port = agent.local_addr().expect("agent bound").port().to_string();
+    run(name, &["127.0.0.1", &port]);
+    agent.stop().expect("agent stops");
+}
+
+#[test]
+fn ping_time_references_deletion_custom_and_tcp_transports() {
+    let mut udp = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
+    let mut tcp = AgentInstance::create(["xrce-agent", "tcp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
+    let udp_port = udp.local_addr().expect("agent bound").port().to_string();
+    let tcp_port = tcp.local_addr().expect("agent bound").port().to_string();
+    run("misc", &["127.0.0.1", &udp_port, &tcp_port]);
+    udp.stop().expect("agent stops");
+    tcp.stop().expect("agent stops");
+}
+
+#[test]
+fn serial_transport_and_framed_custom_transport_over_pseudoterminals() {
+    run_over_serial_lines();
+}
+
+#[test]
+fn ucdr_serializes_every_primitive_array_sequence_and_string() {
+    run("ucdr", &[]);
+}
+
+#[test]
+fn the_boundary_answers_bad_arguments_with_the_seeds_error_values() {
+    run("boundary", &[]);
+}
+
+#[test]
+fn hello_world_publisher_and_subscriber_through_our_agent() {
+    run_with_agent("hello_pubsub");
+}
+
+#[test]
+fn request_reply_with_binary_entities_and_a_reply_from_the_callback() {
+    run_with_agent("services");
+}
+
+#[test]
+fn a_sample_larger_than_the_history_goes_through_continuous_fragmentation() {
+    run_with_agent("big");
+}
