@@ -343,9 +343,11 @@ impl Parser<'_> {
     }
 }
 
-/// The first line of a clap error, without its `error: ` prefix.
+/// A clap error's first paragraph on one line (a missing argument's name is on its second line), without its
+/// `error: ` prefix or the usage that follows.
 fn clap_message(e: &clap::Error) -> String {
     let text = e.to_string();
-    let first = text.lines().next().unwrap_or_default();
-    first.strip_prefix("error: ").unwrap_or(first).trim().to_owned()
+    let first = text.split("\n\n").next().unwrap_or_default();
+    let words = first.split_whitespace().collect::<Vec<_>>().join(" ");
+    words.strip_prefix("error: ").unwrap_or(&words).to_owned()
 }

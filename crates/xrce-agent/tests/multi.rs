@@ -1,0 +1,237 @@
+//! One agent, several transports, from a configuration file (issue 24): `xrce-agent --config FILE` with UDP,
+//! TCP and a pseudoterminal, `-m ced`; a client on each transport publishes on one topic and reads it, and
+//! every client gets every sample of the three, whichever transport it came from. And a fault stays local: a
+//! serial device that goes away leaves the UDP transport serving.
+
+use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Barrier, Mutex};
+use std::time::{Duration, Instant};
+
+use xrce_client::prelude::*;
+
+const HISTORY: usize = 8;
+const BUF: usize = 512 * HISTORY;
+/// Samples each client publishes.
+const SAMPLES: usize = 20;
+const TOPIC: &str = "<dds><topic><name>AcrossTransports</name><dataType>Blob</dataType></topic></dds>";
+
+#[derive(Default)]
+struct Samples(Vec<Vec<u8>>);
+
+impl Callbacks for Samples {
+    fn on_topic(&mut self, _: &mut Outputs<'_, '_>, _: ObjectId, _: u16, _: StreamId, data: &[u8]) {
+        self.0.push(data.to_vec());
+    }
+}
+
+/// The agent binary with its output lines collected; killed when dropped.
+struct RunningAgent {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+}
+
+impl RunningAgent {
+    /// Starts `xrce-agent --config FILE` with `toml` as the file.
+    fn start(dir: &Path, toml: &str) -> Self {
+        let file = dir.join("agent.toml");
+        std::fs::write(&file, toml).expect("config file");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_xrce-agent"))
+            .arg("--config")
+            .arg(&file)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("agent starts");
+        let stdout = child.stdout.take().expect("stdout");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = lines.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                sink.lock().unwrap().push(line);
+            }
+        });
+        Self { child, lines }
+    }
+
+    /// Waits up to 10 s for an output line holding `words`; returns it.
+    fn wait_for(&self, words: &[&str]) -> Option<String> {
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(10) {
+            if let Some(l) = self.lines.lock().unwrap().iter().find(|l| words.iter().all(|w| l.contains(w))) {
+                return Some(l.clone());
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        None
+    }
+
+    /// The pseudoterminal the agent created.
+    fn pseudoterminal(&self) -> PathBuf {
+        let line = self.wait_for(&["Pseudo-Serial device opened at"]).expect("the agent prints its pseudoterminal");
+        PathBuf::from(line.rsplit(' ').next().expect("a path"))
+    }
+}
+
+impl Drop for RunningAgent {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A free loopback port for `udp` or TCP (bound and released: nothing else on this machine picks ports
+/// from the ephemeral range on purpose).
+fn free_port(udp: bool) -> u16 {
+    if udp {
+        std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+    } else {
+        std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+    }
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("xrce-multi-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// A sample of client `tag`: its tag and number, then padding.
+fn sample(tag: u8, n: usize) -> Vec<u8> {
+    let mut s = vec![tag, n as u8];
+    s.resize(24, 0xA5);
+    s
+}
+
+/// One client on `transport`: a participant with a reader and a writer on the topic; once every client is
+/// ready (`ready`), publishes [`SAMPLES`] samples tagged `tag` and reads until it holds `expected` samples
+/// (or 20 s passed); returns what it read.
+fn client<T: Transport>(transport: T, key: u32, tag: u8, ready: &Barrier, expected: usize) -> Vec<Vec<u8>> {
+    let (mut out, mut input) = ([0u8; BUF], [0u8; BUF * 4]);
+    let mut s = Session::new(transport, key).with_callbacks(Samples::default());
+    s.create_session().expect("session");
+    let o = s.create_output_reliable_stream(&mut out, HISTORY).expect("stream");
+    let i = s.create_input_reliable_stream(&mut input, HISTORY * 4).expect("stream");
+    let (p, t) = (object_id(1, ObjectKind::Participant), object_id(1, ObjectKind::Topic));
+    let (pb, dw) = (object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::DataWriter));
+    let (sb, dr) = (object_id(1, ObjectKind::Subscriber), object_id(1, ObjectKind::DataReader));
+    let topic = "<topic><kind>NO_KEY</kind><name>AcrossTransports</name><dataType>Blob</dataType></topic>";
+    let participant = format!("<dds><participant><rtps><name>multi_{tag}</name></rtps></participant></dds>");
+    let reqs = [
+        s.buffer_create_participant_xml(o, p, 0, &participant, REPLACE).expect("p"),
+        s.buffer_create_topic_xml(o, t, p, TOPIC, REPLACE).expect("t"),
+        s.buffer_create_publisher_xml(o, pb, p, "", REPLACE).expect("pub"),
+        s.buffer_create_datawriter_xml(o, dw, pb, &format!("<dds><data_writer>{topic}</data_writer></dds>"), REPLACE)
+            .expect("dw"),
+        s.buffer_create_subscriber_xml(o, sb, p, "", REPLACE).expect("sub"),
+        s.buffer_create_datareader_xml(o, dr, sb, &format!("<dds><data_reader>{topic}</data_reader></dds>"), REPLACE)
+            .expect("dr"),
+    ];
+    let mut status = [0u8; 6];
+    assert!(s.run_session_until_all_status(5000, &reqs, &mut status).expect("run"), "client {tag}: {status:?}");
+    let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
+    s.buffer_request_data(o, dr, i, Some(&control)).expect("read");
+    s.run_session_time(100).expect("run");
+    ready.wait();
+    for n in 0..SAMPLES {
+        s.buffer_topic(o, dw, &sample(tag, n)).expect("sample");
+        if n % 4 == 3 {
+            assert!(s.run_session_until_confirm_delivery(5000).expect("run"), "client {tag}: samples acknowledged");
+        }
+    }
+    assert!(s.run_session_until_confirm_delivery(5000).expect("run"), "client {tag}: samples acknowledged");
+    let t0 = Instant::now();
+    while s.callbacks().0.len() < expected && t0.elapsed() < Duration::from_secs(20) {
+        s.run_session_until_data(200).expect("run");
+    }
+    // Keep answering the others' heartbeats a little, so their last samples are acknowledged too.
+    s.run_session_time(300).expect("run");
+    s.callbacks().0.clone()
+}
+
+/// UDP, TCP and a pseudoterminal in one agent, `-m ced`: every client gets every sample of every client.
+#[test]
+fn clients_on_udp_tcp_and_a_pseudoterminal_share_ced_topics() {
+    let dir = temp_dir("ced");
+    let (udp, tcp) = (free_port(true), free_port(false));
+    let agent = RunningAgent::start(
+        &dir,
+        &format!(
+            "middleware = \"ced\"\nverbose = 4\n\n[[transport]]\nkind = \"udp4\"\nport = {udp}\n\n\
+             [[transport]]\nkind = \"tcp4\"\nport = {tcp}\n\n[[transport]]\nkind = \"pseudoterminal\"\n\
+             baudrate = 921600\n"
+        ),
+    );
+    let pty = agent.pseudoterminal();
+    agent.wait_for(&["agent running"]).expect("the agent runs");
+    let expected = 3 * SAMPLES;
+    let ready = Arc::new(Barrier::new(3));
+    let udp_addr: SocketAddr = ([127, 0, 0, 1], udp).into();
+    let tcp_addr: SocketAddr = ([127, 0, 0, 1], tcp).into();
+    let threads = [
+        {
+            let ready = ready.clone();
+            std::thread::spawn(move || client(UdpTransport::connect(udp_addr).expect("udp"), 0xA1, 1, &ready, expected))
+        },
+        {
+            let ready = ready.clone();
+            std::thread::spawn(move || client(TcpTransport::connect(tcp_addr).expect("tcp"), 0xA2, 2, &ready, expected))
+        },
+        {
+            let ready = ready.clone();
+            std::thread::spawn(move || {
+                let serial = SerialTransport::open_device(&pty, SerialSettings::new(921_600), 0, 1).expect("pty");
+                client(serial, 0xA3, 3, &ready, expected)
+            })
+        },
+    ];
+    let every: Vec<Vec<u8>> = (1..=3).flat_map(|tag| (0..SAMPLES).map(move |n| sample(tag, n))).collect();
+    for (thread, name) in threads.into_iter().zip(["UDP", "TCP", "pseudoterminal"]) {
+        let mut got = thread.join().expect("client thread");
+        got.sort();
+        let mut want = every.clone();
+        want.sort();
+        assert_eq!(got, want, "the {name} client got every sample of the three transports, once each");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A serial device (a pty slave) goes away (its master is closed, as an unplugged adapter hangs up): the agent
+/// says so and tries to reopen it, and its UDP transport goes on serving new sessions.
+#[test]
+fn a_serial_device_gone_leaves_udp_serving() {
+    let dir = temp_dir("fault");
+    let pty = nix::pty::openpty(None, None).expect("pty");
+    let device = nix::unistd::ttyname(&pty.slave).expect("tty name");
+    // Not inherited by the agent: closing them here must hang the line up.
+    for fd in [&pty.master, &pty.slave] {
+        nix::fcntl::fcntl(fd, nix::fcntl::FcntlArg::F_SETFD(nix::fcntl::FdFlag::FD_CLOEXEC)).expect("cloexec");
+    }
+    let udp = free_port(true);
+    let mut agent = RunningAgent::start(
+        &dir,
+        &format!(
+            "middleware = \"ced\"\n[[transport]]\nkind = \"serial\"\ndev = \"{}\"\n[[transport]]\nkind = \"udp4\"\n\
+             port = {udp}\n",
+            device.display()
+        ),
+    );
+    agent.wait_for(&["agent running"]).expect("the agent runs");
+    drop(pty);
+    let gone = agent.wait_for(&["is gone"]).expect("the agent notices the device is gone");
+    assert!(gone.contains(&device.display().to_string()), "{gone}");
+    let mut s = Session::new(UdpTransport::connect(([127, 0, 0, 1], udp).into()).expect("udp"), 0xB1);
+    s.create_session().expect("the UDP transport still serves");
+    let (mut out, mut input) = ([0u8; BUF], [0u8; BUF]);
+    let o = s.create_output_reliable_stream(&mut out, HISTORY).expect("stream");
+    s.create_input_reliable_stream(&mut input, HISTORY).expect("stream");
+    let p = object_id(1, ObjectKind::Participant);
+    let req = s.buffer_create_participant_xml(o, p, 0, "<dds><participant/></dds>", REPLACE).expect("p");
+    let mut status = [0u8; 1];
+    assert!(s.run_session_until_all_status(3000, &[req], &mut status).expect("run"), "{status:?}");
+    assert!(s.delete_session().expect("run"));
+    assert!(agent.child.try_wait().expect("wait").is_none(), "the agent still runs");
+    let _ = std::fs::remove_dir_all(dir);
+}
