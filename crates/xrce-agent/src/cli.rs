@@ -287,6 +287,9 @@ Arguments per transport (place them after the transport):
       -D/--dev <INTERFACE>            SocketCAN interface (required)
       -I/--id <HEX>                   CAN identifier, unused as by eProsima [default: 0x00000001]
 
+Or, every transport of a TOML file in one agent (ours; docs/cli.md, \"Configuration file\"):
+      --config <FILE>                 common options at the top, one [[transport]] table per transport
+
 Example: xrce-agent udp4 -p 8888 -m ced -v6";
 
 #[derive(Debug, Parser)]
