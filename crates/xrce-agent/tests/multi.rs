@@ -1,7 +1,10 @@
 //! One agent, several transports, from a configuration file (issue 24): `xrce-agent --config FILE` with UDP,
 //! TCP and a pseudoterminal, `-m ced`; a client on each transport publishes on one topic and reads it, and
-//! every client gets every sample of the three, whichever transport it came from. And a fault stays local: a
-//! serial device that goes away leaves the UDP transport serving.
+//! every client gets every sample of the three, whichever transport it came from; the same with `-m dds`, where
+//! a DDS peer sees one DDS participant per XRCE participant name, whatever the transports of its clients. And
+//! a fault stays local: a serial device that goes away leaves the UDP transport serving.
+
+mod netns;
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
@@ -105,10 +108,10 @@ fn sample(tag: u8, n: usize) -> Vec<u8> {
     s
 }
 
-/// One client on `transport`: a participant with a reader and a writer on the topic; once every client is
-/// ready (`ready`), publishes [`SAMPLES`] samples tagged `tag` and reads until it holds `expected` samples
-/// (or 20 s passed); returns what it read.
-fn client<T: Transport>(transport: T, key: u32, tag: u8, ready: &Barrier, expected: usize) -> Vec<Vec<u8>> {
+/// One client on `transport`: a participant named `name` with a reader and a writer on the topic; once every
+/// client is ready (`ready`), publishes [`SAMPLES`] samples tagged `tag` and reads until it holds `expected`
+/// samples (or 20 s passed); returns what it read. Its session and entities stay in the agent.
+fn client<T: Transport>(transport: T, key: u32, tag: u8, name: &str, ready: &Barrier, expected: usize) -> Vec<Vec<u8>> {
     let (mut out, mut input) = ([0u8; BUF], [0u8; BUF * 4]);
     let mut s = Session::new(transport, key).with_callbacks(Samples::default());
     s.create_session().expect("session");
@@ -117,8 +120,10 @@ fn client<T: Transport>(transport: T, key: u32, tag: u8, ready: &Barrier, expect
     let (p, t) = (object_id(1, ObjectKind::Participant), object_id(1, ObjectKind::Topic));
     let (pb, dw) = (object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::DataWriter));
     let (sb, dr) = (object_id(1, ObjectKind::Subscriber), object_id(1, ObjectKind::DataReader));
-    let topic = "<topic><kind>NO_KEY</kind><name>AcrossTransports</name><dataType>Blob</dataType></topic>";
-    let participant = format!("<dds><participant><rtps><name>multi_{tag}</name></rtps></participant></dds>");
+    // KEEP_ALL: DDS keeps the last sample only by default, and samples come in bursts of four.
+    let topic = "<topic><kind>NO_KEY</kind><name>AcrossTransports</name><dataType>Blob</dataType>\
+                 <historyQos><kind>KEEP_ALL</kind></historyQos></topic>";
+    let participant = format!("<dds><participant><rtps><name>{name}</name></rtps></participant></dds>");
     let reqs = [
         s.buffer_create_participant_xml(o, p, 0, &participant, REPLACE).expect("p"),
         s.buffer_create_topic_xml(o, t, p, TOPIC, REPLACE).expect("t"),
@@ -135,6 +140,9 @@ fn client<T: Transport>(transport: T, key: u32, tag: u8, ready: &Barrier, expect
     s.buffer_request_data(o, dr, i, Some(&control)).expect("read");
     s.run_session_time(100).expect("run");
     ready.wait();
+    // Every reader matched every writer first: DDS discovery, even inside one process, takes its time.
+    let settle_ms = SETTLE_MS.load(std::sync::atomic::Ordering::Relaxed);
+    s.run_session_time(settle_ms.try_into().unwrap_or(i32::MAX)).expect("run");
     for n in 0..SAMPLES {
         s.buffer_topic(o, dw, &sample(tag, n)).expect("sample");
         if n % 4 == 3 {
@@ -151,15 +159,21 @@ fn client<T: Transport>(transport: T, key: u32, tag: u8, ready: &Barrier, expect
     s.callbacks().0.clone()
 }
 
-/// UDP, TCP and a pseudoterminal in one agent, `-m ced`: every client gets every sample of every client.
-#[test]
-fn clients_on_udp_tcp_and_a_pseudoterminal_share_ced_topics() {
-    let dir = temp_dir("ced");
+/// How long clients wait once all are ready before publishing: DDS discovery time with `-m dds`.
+static SETTLE_MS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Participant names of the clients on UDP, TCP and the pseudoterminal: the first and the last share theirs.
+const NAMES: [&str; 3] = ["multi_shared", "multi_tcp", "multi_shared"];
+
+/// An agent on UDP, TCP and a pseudoterminal with the `middleware`, a client on each; asserts that every
+/// client got every sample of the three; returns the agent, its clients' entities still there.
+fn every_sample_across_transports(middleware: &str) -> RunningAgent {
+    let dir = temp_dir(middleware);
     let (udp, tcp) = (free_port(true), free_port(false));
     let agent = RunningAgent::start(
         &dir,
         &format!(
-            "middleware = \"ced\"\nverbose = 4\n\n[[transport]]\nkind = \"udp4\"\nport = {udp}\n\n\
+            "middleware = \"{middleware}\"\nverbose = 4\n\n[[transport]]\nkind = \"udp4\"\nport = {udp}\n\n\
              [[transport]]\nkind = \"tcp4\"\nport = {tcp}\n\n[[transport]]\nkind = \"pseudoterminal\"\n\
              baudrate = 921600\n"
         ),
@@ -170,32 +184,77 @@ fn clients_on_udp_tcp_and_a_pseudoterminal_share_ced_topics() {
     let ready = Arc::new(Barrier::new(3));
     let udp_addr: SocketAddr = ([127, 0, 0, 1], udp).into();
     let tcp_addr: SocketAddr = ([127, 0, 0, 1], tcp).into();
+    let [udp_name, tcp_name, pty_name] = NAMES;
     let threads = [
         {
             let ready = ready.clone();
-            std::thread::spawn(move || client(UdpTransport::connect(udp_addr).expect("udp"), 0xA1, 1, &ready, expected))
+            std::thread::spawn(move || {
+                client(UdpTransport::connect(udp_addr).expect("udp"), 0xA1, 1, udp_name, &ready, expected)
+            })
         },
         {
             let ready = ready.clone();
-            std::thread::spawn(move || client(TcpTransport::connect(tcp_addr).expect("tcp"), 0xA2, 2, &ready, expected))
+            std::thread::spawn(move || {
+                client(TcpTransport::connect(tcp_addr).expect("tcp"), 0xA2, 2, tcp_name, &ready, expected)
+            })
         },
         {
             let ready = ready.clone();
             std::thread::spawn(move || {
                 let serial = SerialTransport::open_device(&pty, SerialSettings::new(921_600), 0, 1).expect("pty");
-                client(serial, 0xA3, 3, &ready, expected)
+                client(serial, 0xA3, 3, pty_name, &ready, expected)
             })
         },
     ];
-    let every: Vec<Vec<u8>> = (1..=3).flat_map(|tag| (0..SAMPLES).map(move |n| sample(tag, n))).collect();
+    let mut every: Vec<Vec<u8>> = (1..=3).flat_map(|tag| (0..SAMPLES).map(move |n| sample(tag, n))).collect();
+    every.sort();
     for (thread, name) in threads.into_iter().zip(["UDP", "TCP", "pseudoterminal"]) {
         let mut got = thread.join().expect("client thread");
         got.sort();
-        let mut want = every.clone();
-        want.sort();
-        assert_eq!(got, want, "the {name} client got every sample of the three transports, once each");
+        let missing: Vec<(u8, u8)> = every.iter().filter(|s| !got.contains(s)).map(|s| (s[0], s[1])).collect();
+        let missing = format!("{} got, missing (tag, n): {missing:?}", got.len());
+        assert_eq!(
+            got, every,
+            "the {name} client got every sample of the three transports, once each ({missing} missing)"
+        );
     }
     let _ = std::fs::remove_dir_all(dir);
+    agent
+}
+
+/// UDP, TCP and a pseudoterminal in one agent, `-m ced`: every client gets every sample of every client.
+#[test]
+fn clients_on_udp_tcp_and_a_pseudoterminal_share_ced_topics() {
+    every_sample_across_transports("ced");
+}
+
+/// The same with `-m dds`, and a Cyclone DDS peer sees one DDS participant per XRCE participant name: the
+/// UDP and the serial client share theirs.
+#[test]
+#[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
+fn with_dds_a_peer_sees_one_participant_per_name_across_transports() {
+    netns::require_loopback_namespace();
+    SETTLE_MS.store(2000, std::sync::atomic::Ordering::Relaxed);
+    let _agent = every_sample_across_transports("dds");
+    let peers =
+        PathBuf::from(std::env::var_os("XRCE_DDS_PEERS").expect("XRCE_DDS_PEERS: .ci/dds-peers.sh's directory"));
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/dds_peers/participant_names.py");
+    let out = Command::new(peers.join("venv/bin/python"))
+        .arg(script)
+        .arg("2.5")
+        .env("CYCLONEDDS_URI", format!("file://{}", peers.join("cyclonedds-lo.xml").display()))
+        .output()
+        .expect("the Cyclone peer runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let names: Vec<&str> = stdout.lines().filter_map(|l| l.strip_prefix("participant name=")).collect();
+    println!("participant names seen by Cyclone: {names:?}");
+    if std::env::var("XRCE_DDS_ENGINE").as_deref() == Ok("rustdds") {
+        // RustDDS cannot announce a participant name (tests/dds_interop.rs): only the samples are checked.
+        return;
+    }
+    for name in ["multi_shared", "multi_tcp"] {
+        assert_eq!(names.iter().filter(|n| **n == name).count(), 1, "one DDS participant named {name}: {names:?}");
+    }
 }
 
 /// A serial device (a pty slave) goes away (its master is closed, as an unplugged adapter hangs up): the agent
