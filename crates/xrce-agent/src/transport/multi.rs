@@ -12,7 +12,9 @@
 use std::fmt;
 use std::io;
 use std::net::{SocketAddr, TcpListener, UdpSocket};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
 use std::time::Instant;
 
 use mio::event::Event;
@@ -20,6 +22,8 @@ use mio::Registry;
 
 #[cfg(target_os = "linux")]
 use super::canfd::{CanEndpoint, CanIo, SocketCanBus};
+use super::custom::shell::{EndpointTable, Shell as CustomShell};
+use super::custom::{CustomAgentError, CustomAgentIo, CustomOptions, EndpointDesc, EndpointId, Mode, Parts};
 use super::discovery::DiscoveryServer;
 use super::drive::{EventLoop, Inbox, Io, Sink, Spent, Tokens};
 #[cfg(target_os = "linux")]
@@ -51,6 +55,8 @@ pub enum Peer {
     /// A client on a CAN FD bus.
     #[cfg(target_os = "linux")]
     Can(CanEndpoint),
+    /// An endpoint of a custom transport.
+    Custom(EndpointId),
 }
 
 impl fmt::Debug for AnyEndpoint {
@@ -62,6 +68,7 @@ impl fmt::Debug for AnyEndpoint {
             Peer::Serial(s) => write!(f, "{s}"),
             #[cfg(target_os = "linux")]
             Peer::Can(c) => write!(f, "{c:?}"),
+            Peer::Custom(e) => write!(f, "{e}"),
         }
     }
 }
@@ -72,7 +79,6 @@ impl AnyEndpoint {
         match self.peer {
             Peer::Udp(a) => Some(a),
             Peer::Tcp(c) => Some(c.peer),
-            #[cfg(target_os = "linux")]
             _ => None,
         }
     }
@@ -107,6 +113,7 @@ macro_rules! shell_endpoint {
 shell_endpoint!(
     SocketAddr => Udp,
     ConnId => Tcp,
+    EndpointId => Custom,
     SerialEndpoint => Serial #[cfg(target_os = "linux")],
     CanEndpoint => Can #[cfg(target_os = "linux")],
 );
@@ -196,6 +203,7 @@ enum Shell<'a> {
     Serial(Served<SerialIo, SerialEndpoint>),
     #[cfg(target_os = "linux")]
     Can(Served<CanIo<'a, SocketCanBus>, CanEndpoint>),
+    Custom(Served<CustomShell, EndpointId>),
 }
 
 /// Runs `$body` on the [`Served`] of any shell.
@@ -208,6 +216,7 @@ macro_rules! each {
             Shell::Serial($s) => $body,
             #[cfg(target_os = "linux")]
             Shell::Can($s) => $body,
+            Shell::Custom($s) => $body,
         }
     };
 }
@@ -270,6 +279,22 @@ enum Source {
     Serial(Vec<Line>),
     #[cfg(target_os = "linux")]
     Can(SocketCanBus, String),
+    Custom(CustomSource),
+}
+
+/// A custom transport (the user's `read` and `write`, [`super::custom`]), opened, its reader not started.
+struct CustomSource {
+    name: String,
+    desc: EndpointDesc,
+    mode: Mode,
+    options: CustomOptions,
+    io: Arc<dyn CustomAgentIo>,
+}
+
+impl fmt::Debug for CustomSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("CustomSource").field("name", &self.name).field("mode", &self.mode).finish_non_exhaustive()
+    }
 }
 
 impl Source {
@@ -283,6 +308,7 @@ impl Source {
             }
             #[cfg(target_os = "linux")]
             Self::Can(_, name) => format!("CAN FD {name}"),
+            Self::Custom(c) => format!("custom {}", c.name),
         }
     }
 }
@@ -338,6 +364,27 @@ impl MultiServer {
         self.add(Source::Can(bus, name.into()))
     }
 
+    /// Adds a custom transport (eProsima's `CustomAgent` operations, [`super::custom`]): opens it now (its
+    /// `open`), starts its reader thread when the server runs, closes it when the server stops.
+    pub fn add_custom(
+        &mut self,
+        name: impl Into<String>,
+        endpoint: EndpointDesc,
+        mode: impl Into<Mode>,
+        io: impl CustomAgentIo,
+        options: CustomOptions,
+    ) -> Result<u8, CustomAgentError> {
+        let name = name.into();
+        if let Err(source) = endpoint.validate() {
+            return Err(CustomAgentError::Endpoint { name, source });
+        }
+        let io: Arc<dyn CustomAgentIo> = Arc::new(io);
+        io.open().map_err(|source| CustomAgentError::Open { name: name.clone(), source })?;
+        let source =
+            Source::Custom(CustomSource { name: name.clone(), desc: endpoint, mode: mode.into(), options, io });
+        self.add(source).map_err(|source| CustomAgentError::Io { name, source })
+    }
+
     /// Answers discovery requests (`-d`) from this server's loop.
     #[must_use]
     pub fn with_discovery(mut self, discovery: DiscoveryServer) -> Self {
@@ -353,23 +400,49 @@ impl MultiServer {
     /// Serves every transport until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(mut self, stop: &AtomicBool) -> io::Result<()> {
         let label = format!("the server on {}", self.names().join(", "));
-        let io = self.looped.run(&label, stop, |registry| register(&mut self.sources, registry))?;
-        for shell in io.shells {
-            match shell {
-                Shell::Tcp(mut s) => s.io.close_all(),
-                #[cfg(target_os = "linux")]
-                Shell::Can(s) if s.io.dropped() > 0 => {
-                    tracing::debug!(bus = %s.name, dropped = s.io.dropped(), "CAN frames dropped while sending");
+        let readers_stop = Arc::new(AtomicBool::new(false));
+        let mut readers = Vec::new();
+        let served = self
+            .looped
+            .run(&label, stop, |registry| register(&mut self.sources, registry, &readers_stop, &mut readers))
+            .map(|io| io.shells);
+        readers_stop.store(true, Ordering::Relaxed);
+        let result = served.map(|shells| shells.into_iter().for_each(finish));
+        // The custom transports' loop sides are gone: their readers end, then the transports are closed.
+        for reader in readers {
+            let _ = reader.join();
+        }
+        for source in &self.sources {
+            if let Source::Custom(c) = source {
+                if let Err(e) = c.io.close() {
+                    tracing::warn!(transport = %c.name, "custom transport close failed: {e}");
                 }
-                _ => {}
             }
         }
-        Ok(())
+        result
     }
 }
 
-/// Registers every source with the loop's `registry`, each in its own token range.
-fn register<'a>(sources: &'a mut [Source], registry: &Registry) -> io::Result<MultiIo<'a>> {
+/// What a shell leaves when its server stops: TCP connections shut, CAN losses logged.
+fn finish(shell: Shell<'_>) {
+    match shell {
+        Shell::Tcp(mut s) => s.io.close_all(),
+        #[cfg(target_os = "linux")]
+        Shell::Can(s) if s.io.dropped() > 0 => {
+            tracing::debug!(bus = %s.name, dropped = s.io.dropped(), "CAN frames dropped while sending");
+        }
+        _ => {}
+    }
+}
+
+/// Registers every source with the loop's `registry`, each in its own token range; custom transports' readers
+/// start (until `readers_stop`), their handles going to `readers`.
+fn register<'a>(
+    sources: &'a mut [Source],
+    registry: &Registry,
+    readers_stop: &Arc<AtomicBool>,
+    readers: &mut Vec<JoinHandle<()>>,
+) -> io::Result<MultiIo<'a>> {
     let mut shells = Vec::with_capacity(sources.len());
     for (index, source) in sources.iter_mut().enumerate() {
         let tokens = Tokens::shared(index).ok_or_else(too_many)?;
@@ -386,6 +459,13 @@ fn register<'a>(sources: &'a mut [Source], registry: &Registry) -> io::Result<Mu
             Source::Can(bus, interface) => {
                 let io = CanIo::register(bus, super::device_name(interface), registry, tokens)?;
                 Shell::Can(Served::new(io, name))
+            }
+            Source::Custom(c) => {
+                let parts = Parts { name: &c.name, desc: &c.desc, mode: c.mode, options: &c.options, io: &c.io };
+                let (mut shell, reader) = parts.start(EndpointTable::new(c.options.max_endpoints), readers_stop)?;
+                readers.push(reader);
+                shell.register(registry, tokens.token(1))?;
+                Shell::Custom(Served::new(shell, name))
             }
         });
     }
