@@ -184,10 +184,10 @@ impl<I: Io<E>, E: ShellEndpoint> Served<I, E> {
         }
     }
 
+    /// Every turn, as when alone, even with nothing new: TCP and serial shells write their outboxes as their
+    /// peers take them, and close those that stopped taking.
     fn send(&mut self, transport: u8, spent: &mut Spent<AnyEndpoint>) {
-        if !self.out.is_empty() {
-            self.io.send(&mut self.out, &mut self.spent);
-        }
+        self.io.send(&mut self.out, &mut self.spent);
         spent.buffers.append(&mut self.spent.buffers);
         spent.gone.extend(self.spent.gone.drain(..).map(|e| AnyEndpoint { transport, peer: e.wrap() }));
     }
