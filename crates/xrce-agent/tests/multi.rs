@@ -294,3 +294,80 @@ fn a_serial_device_gone_leaves_udp_serving() {
     assert!(agent.child.try_wait().expect("wait").is_none(), "the agent still runs");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// Publishes reliable 16-byte samples over `serial` as fast as the agent acknowledges them, for `run`;
+/// returns samples per second. (Best effort would measure the client: a pseudoterminal takes what the agent
+/// has not read yet, up to its buffer, and the client's transport drops the rest.)
+fn serial_flood(serial: SerialTransport, run: Duration) -> f64 {
+    let (mut out, mut input) = ([0u8; BUF], [0u8; BUF]);
+    let mut s = Session::new(serial, 0xC1);
+    s.create_session().expect("session");
+    let o = s.create_output_reliable_stream(&mut out, HISTORY).expect("stream");
+    s.create_input_reliable_stream(&mut input, HISTORY).expect("stream");
+    let (p, t) = (object_id(1, ObjectKind::Participant), object_id(1, ObjectKind::Topic));
+    let (pb, dw) = (object_id(1, ObjectKind::Publisher), object_id(1, ObjectKind::DataWriter));
+    let writer = "<dds><data_writer><topic><kind>NO_KEY</kind><name>SerialFlood</name><dataType>Blob</dataType>\
+                  </topic></data_writer></dds>";
+    let topic = "<dds><topic><name>SerialFlood</name><dataType>Blob</dataType></topic></dds>";
+    let reqs = [
+        s.buffer_create_participant_xml(o, p, 0, "<dds><participant/></dds>", REPLACE).expect("p"),
+        s.buffer_create_topic_xml(o, t, p, topic, REPLACE).expect("t"),
+        s.buffer_create_publisher_xml(o, pb, p, "", REPLACE).expect("pub"),
+        s.buffer_create_datawriter_xml(o, dw, pb, writer, REPLACE).expect("dw"),
+    ];
+    let mut status = [0u8; 4];
+    assert!(s.run_session_until_all_status(3000, &reqs, &mut status).expect("run"), "{status:?}");
+    let (t0, mut sent) = (Instant::now(), 0u64);
+    while t0.elapsed() < run {
+        for _ in 0..HISTORY {
+            s.buffer_topic(o, dw, &[0x5A; 16]).expect("sample");
+        }
+        assert!(s.run_session_until_confirm_delivery(3000).expect("run"), "the agent acknowledged");
+        sent += HISTORY as u64;
+    }
+    sent as f64 / t0.elapsed().as_secs_f64()
+}
+
+/// UDP best-effort received/s through the agent at `port` (`xrce-bench throughput`, 3 s).
+fn udp_throughput(port: u16) -> f64 {
+    let bench = std::env::var("XRCE_BENCH")
+        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/release/xrce-bench").to_owned());
+    let agent = format!("127.0.0.1:{port}");
+    let out = Command::new(bench)
+        .args(["throughput", "--agent", &agent, "--best-effort", "--payload", "16", "--duration", "3s", "--json"])
+        .output()
+        .expect("xrce-bench runs (cargo build --release -p xrce-bench, or XRCE_BENCH=path)");
+    let line = String::from_utf8_lossy(&out.stdout).lines().next().unwrap_or_default().to_owned();
+    let row: serde_json::Value = serde_json::from_str(&line).expect("a JSON line");
+    row["received_per_s"].as_f64().expect("received_per_s")
+}
+
+/// Issue 24, item 5: serial and UDP at their top rates in one agent, each alone and both at once. A
+/// measurement, printed: run with `--ignored --nocapture` on a release build.
+#[test]
+#[ignore = "a measurement; run with --ignored --nocapture (needs target/release/xrce-bench)"]
+fn serial_and_udp_at_top_rates_report() {
+    let dir = temp_dir("rates");
+    let udp = free_port(true);
+    let agent = RunningAgent::start(
+        &dir,
+        &format!(
+            "middleware = \"ced\"\nverbose = 0\n[[transport]]\nkind = \"udp4\"\nport = {udp}\n\
+             [[transport]]\nkind = \"pseudoterminal\"\n"
+        ),
+    );
+    let pty = agent.pseudoterminal();
+    let open = || SerialTransport::open_device(&pty, SerialSettings::new(115_200), 0, 1).expect("pty");
+    let serial_alone = serial_flood(open(), Duration::from_secs(3));
+    let udp_alone = udp_throughput(udp);
+    let serial = open();
+    let flood = std::thread::spawn(move || serial_flood(serial, Duration::from_secs(5)));
+    std::thread::sleep(Duration::from_millis(500));
+    let udp_with_serial = udp_throughput(udp);
+    let serial_with_udp = flood.join().expect("flood thread");
+    println!(
+        "MULTI-RATES serial alone {serial_alone:.0}/s, with UDP {serial_with_udp:.0}/s; \
+         UDP alone {udp_alone:.0}/s, with serial {udp_with_serial:.0}/s"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
