@@ -471,3 +471,50 @@ fn register<'a>(
     }
     Ok(MultiIo { shells })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::{AgentCore, CoreConfig};
+    use crate::middleware::ced::Ced;
+    use crate::middleware::describe::FallbackProfiles;
+    use crate::transport::home::Core;
+
+    /// A transport whose reads fail: its socket broke.
+    #[derive(Default)]
+    struct Broken {
+        reads: usize,
+    }
+
+    impl Io<SocketAddr> for Broken {
+        fn ready(&mut self, _: &Event) {}
+        fn receive(&mut self, _: &mut Inbox<'_, SocketAddr>) -> io::Result<()> {
+            self.reads += 1;
+            Err(io::Error::other("socket broke"))
+        }
+        fn send(&mut self, out: &mut Vec<Transmit<SocketAddr>>, spent: &mut Spent<SocketAddr>) {
+            spent.buffers.extend(out.drain(..).map(|t| t.data));
+        }
+    }
+
+    /// A transport that fails is set aside, once: no error reaches the loop (which would stop every
+    /// transport), and it is not read again.
+    #[test]
+    fn a_failing_transport_is_set_aside_without_stopping_the_loop() {
+        let mut core: Core<AnyEndpoint> =
+            AgentCore::new(CoreConfig::default(), Box::new(Ced::new(Arc::new(FallbackProfiles))));
+        let mut served = Served::new(Broken::default(), "UDP 127.0.0.1:1".into());
+        let mut inbox = Inbox::new(&mut core, Instant::now(), false);
+        served.receive(0, &mut inbox);
+        served.receive(0, &mut inbox);
+        assert!(served.failed);
+        assert_eq!(served.io.reads, 1, "not read again");
+        assert!(!served.prefetch());
+        // What the core still sends it goes back to the pool.
+        let mut spent = Spent { buffers: Vec::new(), gone: Vec::new() };
+        served.queue(Peer::Udp(([127, 0, 0, 1], 2).into()), vec![1, 2, 3], &mut spent);
+        served.queue(Peer::Tcp(ConnId { number: 1, peer: ([127, 0, 0, 1], 3).into() }), vec![4], &mut spent);
+        served.send(0, &mut spent);
+        assert_eq!(spent.buffers.len(), 2, "the message of another transport's kind and the sent one");
+    }
+}
