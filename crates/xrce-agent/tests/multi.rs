@@ -10,7 +10,8 @@ use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Barrier, Mutex};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use xrce_client::prelude::*;
@@ -101,6 +102,26 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// Clients ready to publish: each waits for all, or 20 s (a client that failed must not hang the others).
+struct Ready {
+    arrived: AtomicUsize,
+    all: usize,
+}
+
+impl Ready {
+    fn new(all: usize) -> Self {
+        Self { arrived: AtomicUsize::new(0), all }
+    }
+
+    fn arrive(&self) {
+        self.arrived.fetch_add(1, Ordering::SeqCst);
+        let t0 = Instant::now();
+        while self.arrived.load(Ordering::SeqCst) < self.all && t0.elapsed() < Duration::from_secs(20) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}
+
 /// A sample of client `tag`: its tag and number, then padding.
 fn sample(tag: u8, n: usize) -> Vec<u8> {
     let mut s = vec![tag, n as u8];
@@ -111,7 +132,7 @@ fn sample(tag: u8, n: usize) -> Vec<u8> {
 /// One client on `transport`: a participant named `name` with a reader and a writer on the topic; once every
 /// client is ready (`ready`), publishes [`SAMPLES`] samples tagged `tag` and reads until it holds `expected`
 /// samples (or 20 s passed); returns what it read. Its session and entities stay in the agent.
-fn client<T: Transport>(transport: T, key: u32, tag: u8, name: &str, ready: &Barrier, expected: usize) -> Vec<Vec<u8>> {
+fn client<T: Transport>(transport: T, key: u32, tag: u8, name: &str, ready: &Ready, expected: usize) -> Vec<Vec<u8>> {
     let (mut out, mut input) = ([0u8; BUF], [0u8; BUF * 4]);
     let mut s = Session::new(transport, key).with_callbacks(Samples::default());
     s.create_session().expect("session");
@@ -139,9 +160,9 @@ fn client<T: Transport>(transport: T, key: u32, tag: u8, name: &str, ready: &Bar
     let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
     s.buffer_request_data(o, dr, i, Some(&control)).expect("read");
     s.run_session_time(100).expect("run");
-    ready.wait();
+    ready.arrive();
     // Every reader matched every writer first: DDS discovery, even inside one process, takes its time.
-    let settle_ms = SETTLE_MS.load(std::sync::atomic::Ordering::Relaxed);
+    let settle_ms = SETTLE_MS.load(Ordering::Relaxed);
     s.run_session_time(settle_ms.try_into().unwrap_or(i32::MAX)).expect("run");
     for n in 0..SAMPLES {
         s.buffer_topic(o, dw, &sample(tag, n)).expect("sample");
@@ -160,7 +181,7 @@ fn client<T: Transport>(transport: T, key: u32, tag: u8, name: &str, ready: &Bar
 }
 
 /// How long clients wait once all are ready before publishing: DDS discovery time with `-m dds`.
-static SETTLE_MS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+static SETTLE_MS: AtomicU64 = AtomicU64::new(0);
 
 /// Participant names of the clients on UDP, TCP and the pseudoterminal: the first and the last share theirs.
 const NAMES: [&str; 3] = ["multi_shared", "multi_tcp", "multi_shared"];
@@ -181,7 +202,7 @@ fn every_sample_across_transports(middleware: &str) -> RunningAgent {
     let pty = agent.pseudoterminal();
     agent.wait_for(&["agent running"]).expect("the agent runs");
     let expected = 3 * SAMPLES;
-    let ready = Arc::new(Barrier::new(3));
+    let ready = Arc::new(Ready::new(3));
     let udp_addr: SocketAddr = ([127, 0, 0, 1], udp).into();
     let tcp_addr: SocketAddr = ([127, 0, 0, 1], tcp).into();
     let [udp_name, tcp_name, pty_name] = NAMES;
@@ -234,7 +255,7 @@ fn clients_on_udp_tcp_and_a_pseudoterminal_share_ced_topics() {
 #[ignore = "needs XRCE_DDS_PEERS=<dir> (.ci/dds-peers.sh) and shared/dds-peers/netns.sh"]
 fn with_dds_a_peer_sees_one_participant_per_name_across_transports() {
     netns::require_loopback_namespace();
-    SETTLE_MS.store(2000, std::sync::atomic::Ordering::Relaxed);
+    SETTLE_MS.store(2000, Ordering::Relaxed);
     let _agent = every_sample_across_transports("dds");
     let peers =
         PathBuf::from(std::env::var_os("XRCE_DDS_PEERS").expect("XRCE_DDS_PEERS: .ci/dds-peers.sh's directory"));
