@@ -21,12 +21,14 @@ use xrce_proto::submessage::CreationMode;
 use xrce_proto::{ClientKey, EntityVariant, ObjectId, ObjectKind, StatusCode};
 
 use crate::cli::{self, Config, Transport};
+use crate::config_file::{FileConfig, TransportSpec};
 use crate::core::{AgentCore, CoreConfig};
 use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
 use crate::middleware::profiles::StoreProfiles;
 use crate::middleware::ros_graph::RosGraphMode;
 use crate::middleware::{BuildError, DdsOptions, MiddlewareKind};
 use crate::transport::discovery::DiscoveryServer;
+use crate::transport::multi::{AnyEndpoint, MultiServer};
 use crate::transport::tcp::{ConnId, TcpServer};
 use crate::transport::udp::UdpServer;
 use crate::transport::{DynMiddleware, SharedCore};
@@ -56,6 +58,9 @@ pub enum AgentError {
          middleware (the default) share their topics through the DDS domain"
     )]
     P2p(u16),
+    /// The configuration file (`--config`) is not valid.
+    #[error(transparent)]
+    ConfigFile(#[from] crate::config_file::ConfigFileError),
     /// The refs file could not be loaded.
     #[error(transparent)]
     Profile(#[from] crate::profile::ProfileError),
@@ -325,6 +330,8 @@ pub enum AgentHandle {
     /// The CAN FD server: endpoints are the clients' CAN identifiers.
     #[cfg(target_os = "linux")]
     Can(Agent<crate::transport::canfd::CanEndpoint>),
+    /// Several transports from a configuration file (`--config`): endpoints name the transport too.
+    Multi(Agent<AnyEndpoint>),
 }
 
 /// A running agent built from command-line arguments (eProsima's `AgentInstance`).
@@ -433,6 +440,44 @@ impl AgentInstance {
             tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
         }
         Ok(Self { config, agent, stop, server: Some(server), local_addr })
+    }
+
+    /// Starts one agent on every transport of a configuration file (`--config`): every port and device is
+    /// opened before any is served, so a failure leaves nothing running.
+    pub fn from_file(file: FileConfig) -> Result<Self, AgentError> {
+        let config = file.options;
+        if let Some(port) = config.p2p {
+            return Err(AgentError::P2p(port));
+        }
+        let kind = to_cli_kind(config.middleware);
+        let mut core = core_config(&config);
+        if file.transports.iter().any(|t| matches!(t.transport, Transport::CanFd { .. })) {
+            // One frame per message on the bus; the clients of the other transports get it too (one core).
+            #[cfg(target_os = "linux")]
+            {
+                core.max_mtu = crate::transport::canfd::core_config().max_mtu;
+            }
+        }
+        core.info_port = file.transports.iter().find_map(|t| t.transport.port()).unwrap_or(core.info_port);
+        let agent = Agent::<AnyEndpoint>::with_dds(kind, core, to_graph_mode(config.ros_graph), dds_options(&config))?;
+        load_refs(&config, &agent.profiles)?;
+        agent.core.with(|c| c.set_peer_address(AnyEndpoint::ip_address));
+        let mut server = MultiServer::new(agent.core())?;
+        let mut local_addr = None;
+        for spec in &file.transports {
+            let opened = open_transport(&mut server, spec)?;
+            local_addr = local_addr.or(opened);
+        }
+        if let Some(d) = local_addr.map(|a| discovery_for(&config, a.port())).transpose()?.flatten() {
+            server = server.with_discovery(d);
+        } else if config.discovery.is_some() {
+            tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
+        }
+        tracing::info!(transports = ?server.names(), middleware = kind.name(), "agent running");
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let handle = std::thread::Builder::new().name("xrce-agent".into()).spawn(move || server.run(&stop2))?;
+        Ok(Self { config, agent: AgentHandle::Multi(agent), stop, server: Some(handle), local_addr })
     }
 
     /// The command line it was built from.
@@ -556,6 +601,69 @@ fn discovery_for(config: &Config, service_port: u16) -> Result<Option<DiscoveryS
         .map_err(cannot_open(format!("discovery port 0.0.0.0:{port}")))?;
     tracing::info!(port, service_port, "discovery server running");
     Ok(Some(server))
+}
+
+/// Opens the transport of `spec` and adds it to `server`; returns its address if it has one.
+fn open_transport(server: &mut MultiServer, spec: &TransportSpec) -> Result<Option<SocketAddr>, AgentError> {
+    let transport = &spec.transport;
+    match transport {
+        Transport::Udp4 { port } | Transport::Udp6 { port } => {
+            let addr = bind_addr(transport, *port);
+            let socket = crate::transport::udp::bind_socket(addr).map_err(cannot_open(format!("UDP port {addr}")))?;
+            let local = socket.local_addr()?;
+            server.add_udp(socket)?;
+            Ok(Some(local))
+        }
+        Transport::Tcp4 { port } | Transport::Tcp6 { port } => {
+            let addr = bind_addr(transport, *port);
+            let listener = std::net::TcpListener::bind(addr).map_err(cannot_open(format!("TCP port {addr}")))?;
+            let local = listener.local_addr()?;
+            server.add_tcp(listener)?;
+            Ok(Some(local))
+        }
+        #[cfg(target_os = "linux")]
+        Transport::Serial { device, baudrate } => {
+            open_serial(server, std::slice::from_ref(device), *baudrate, spec.flow_control)?;
+            Ok(None)
+        }
+        #[cfg(target_os = "linux")]
+        Transport::MultiSerial { devices, baudrate } => {
+            open_serial(server, devices, *baudrate, spec.flow_control)?;
+            Ok(None)
+        }
+        #[cfg(target_os = "linux")]
+        Transport::PseudoTerminal { baudrate } => {
+            let line =
+                crate::transport::serial::Line::pseudoterminal(*baudrate).map_err(cannot_open("pseudoterminal"))?;
+            // eProsima's message; scripts read the device name from it.
+            println!("Pseudo-Serial device opened at {}", line.name());
+            server.add_serial(vec![line])?;
+            Ok(None)
+        }
+        #[cfg(target_os = "linux")]
+        Transport::CanFd { device, .. } => {
+            let bus = crate::transport::canfd::SocketCanBus::open(device)
+                .map_err(cannot_open(format!("CAN interface {device}")))?;
+            server.add_can(bus, device.clone())?;
+            Ok(None)
+        }
+        #[cfg(not(target_os = "linux"))]
+        other => Err(AgentError::Transport(other.name())),
+    }
+}
+
+/// Opens serial `devices` and adds them to `server` as one transport.
+#[cfg(target_os = "linux")]
+fn open_serial(server: &mut MultiServer, devices: &[String], baud: u32, flow_control: bool) -> Result<(), AgentError> {
+    let lines = devices
+        .iter()
+        .map(|d| {
+            crate::transport::serial::Line::open(Path::new(d), baud, flow_control)
+                .map_err(cannot_open(format!("serial device {d}")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    server.add_serial(lines)?;
+    Ok(())
 }
 
 fn load_refs(config: &Config, profiles: &StoreProfiles) -> Result<(), AgentError> {

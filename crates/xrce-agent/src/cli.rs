@@ -287,6 +287,9 @@ Arguments per transport (place them after the transport):
       -D/--dev <INTERFACE>            SocketCAN interface (required)
       -I/--id <HEX>                   CAN identifier, unused as by eProsima [default: 0x00000001]
 
+Or, every transport of a TOML file in one agent (ours; docs/cli.md, \"Configuration file\"):
+      --config <FILE>                 common options at the top, one [[transport]] table per transport
+
 Example: xrce-agent udp4 -p 8888 -m ced -v6";
 
 #[derive(Debug, Parser)]
@@ -294,15 +297,30 @@ Example: xrce-agent udp4 -p 8888 -m ced -v6";
     name = "xrce-agent",
     version = concat!(env!("CARGO_PKG_VERSION"), " (DDS engine: ", env!("XRCE_AGENT_DDS_BUILT_WITH"), ")"),
     about = "DDS-XRCE agent, a drop-in replacement for eProsima's MicroXRCEAgent",
-    subcommand_required = true,
     arg_required_else_help = true,
+    args_conflicts_with_subcommands = true,
     disable_help_subcommand = true,
     args_override_self = true,
     after_help = ALL_ARGUMENTS
 )]
 struct Cli {
+    /// Runs every transport of a TOML file in one agent (ours; see docs/cli.md, "Configuration file"): its
+    /// common options at the top, one [[transport]] table per transport. Takes no other argument.
+    #[arg(long, value_name = "FILE", exclusive = true)]
+    config: Option<PathBuf>,
+
     #[command(subcommand)]
-    transport: TransportCommand,
+    transport: Option<TransportCommand>,
+}
+
+/// What a command line asks for: one transport (every `MicroXRCEAgent` form), or the transports of a
+/// configuration file (`--config FILE`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Invocation {
+    /// A transport subcommand and its options.
+    Command(Config),
+    /// `--config FILE`: the file's path, read by [`crate::config_file::load`].
+    File(PathBuf),
 }
 
 #[derive(Debug, Subcommand)]
@@ -494,16 +512,36 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
+    match parse_invocation(args)? {
+        Invocation::Command(config) => Ok(config),
+        Invocation::File(_) => {
+            Err(clap::Error::raw(ErrorKind::ArgumentConflict, "--config names a file: use parse_invocation\n"))
+        }
+    }
+}
+
+/// As [`parse_from`], and `--config FILE` too.
+pub fn parse_invocation<I, T>(args: I) -> Result<Invocation, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
     let mut cmd = Cli::command();
     let matches = cmd.try_get_matches_from_mut(args)?;
     let cli = Cli::from_arg_matches(&matches).map_err(|e| e.format(&mut cmd))?;
-    cli.into_config().map_err(|e| e.format(&mut cmd))
+    if let Some(file) = cli.config {
+        return Ok(Invocation::File(file));
+    }
+    let Some(transport) = cli.transport else {
+        return Err(cmd.error(ErrorKind::MissingSubcommand, "a transport or --config FILE is required"));
+    };
+    transport.into_config().map(Invocation::Command).map_err(|e| e.format(&mut cmd))
 }
 
-impl Cli {
+impl TransportCommand {
     fn into_config(self) -> Result<Config, clap::Error> {
         let mut flow_control = false;
-        let (transport, common) = match self.transport {
+        let (transport, common) = match self {
             TransportCommand::Udp4(a) => (Transport::Udp4 { port: a.port }, a.common),
             TransportCommand::Udp6(a) => (Transport::Udp6 { port: a.port }, a.common),
             TransportCommand::Tcp4(a) => (Transport::Tcp4 { port: a.port }, a.common),

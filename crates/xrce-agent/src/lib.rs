@@ -10,6 +10,7 @@ pub mod agent;
 /// Recycled byte buffers, shared by the core and the CED middleware (internal).
 mod bufpool;
 pub mod cli;
+pub mod config_file;
 pub mod core;
 pub mod logging;
 pub mod main_cli;

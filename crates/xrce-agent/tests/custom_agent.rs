@@ -825,3 +825,35 @@ fn round_trip_report_udp_reference() {
     println!("built-in UDP agent, loopback: round trip median {median:?}, p99 {p99:?}");
     agent.stop().unwrap();
 }
+
+/// Custom transports among others in one server (issue 24, `MultiServer::add_custom`): two in-memory media
+/// beside a UDP socket, the subscriber on one and the publisher on the other; each medium opened once when
+/// added and closed once when the server stops.
+#[test]
+fn custom_transports_share_one_core_with_the_others() {
+    use xrce_agent::agent::Agent;
+    use xrce_agent::core::CoreConfig;
+    use xrce_agent::transport::custom::CustomOptions;
+    use xrce_agent::transport::multi::{AnyEndpoint, MultiServer};
+    let (a, b) = (Hub::new(), Hub::new());
+    let agent = Agent::<AnyEndpoint>::new(MiddlewareKind::Ced, CoreConfig::default()).expect("ced");
+    let mut server = MultiServer::new(agent.core()).expect("server");
+    let udp = xrce_agent::transport::udp::bind_socket("127.0.0.1:0".parse().unwrap()).expect("udp");
+    server.add_udp(udp).expect("udp added");
+    for (name, hub) in [("hub-a", &a), ("hub-b", &b)] {
+        server.add_custom(name, hub_endpoint(), Mode::Packet, hub.clone(), CustomOptions::default()).expect("added");
+    }
+    let names = server.names();
+    assert!(names[0].starts_with("UDP 127.0.0.1:"), "{names:?}");
+    assert_eq!(names[1..], ["custom hub-a", "custom hub-b"]);
+    let stop = Arc::new(AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let thread = std::thread::spawn(move || server.run(&stop2));
+    pubsub_through(a.connect(1), b.connect(1), false, (0x0D05_0001, 0x0D05_0002), "AcrossMedia");
+    assert!(a.written_to(1) > 0 && b.written_to(1) > 0, "both media answered");
+    stop.store(true, Ordering::Relaxed);
+    thread.join().expect("server thread").expect("server ran");
+    for hub in [&a, &b] {
+        assert_eq!((hub.opens.load(Ordering::SeqCst), hub.closes.load(Ordering::SeqCst)), (1, 1));
+    }
+}

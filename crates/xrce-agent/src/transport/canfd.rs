@@ -19,11 +19,11 @@ use std::time::{Duration, Instant};
 
 use mio::event::Event;
 use mio::unix::SourceFd;
-use mio::{Interest, Registry, Token};
+use mio::{Interest, Registry};
 use socketcan::{CanFdFrame, CanFdSocket, CanRawFrame, EmbeddedFrame, ExtendedId, Id, Socket, StandardId};
 use xrce_proto::framing::can::{Frame, MAX_MESSAGE_LEN};
 
-use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::drive::{EventLoop, Inbox, Io, Spent, Tokens};
 use super::SharedCore;
 use crate::core::{CoreConfig, Transmit};
 
@@ -35,8 +35,6 @@ pub const MAX_OUTBOX: usize = 1024;
 /// How long a turn keeps retrying a send the interface refused with `ENOBUFS` (its queue, `txqueuelen`, is
 /// full; the kernel gives no readiness event for it) before leaving the rest to the next turn.
 pub const NOBUFS_BUDGET: Duration = Duration::from_millis(5);
-
-const BUS: Token = Token(1);
 
 /// The core settings of a CAN FD agent: messages of at most one frame, whatever MTU a client announces (a
 /// client built with a larger one is still answered in frames; its own messages are its business).
@@ -240,19 +238,9 @@ impl<B: CanBus> CanServer<B> {
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &AtomicBool) -> io::Result<()> {
         let name = format!("the CAN FD server on {}", self.name);
-        let io = self.looped.run(&name, stop, |registry| {
-            registry.register(&mut SourceFd(&self.bus.as_raw_fd()), BUS, Interest::READABLE)?;
-            Ok(CanIo {
-                bus: &self.bus,
-                interface: self.interface,
-                registry: registry.try_clone()?,
-                // Frames may have come before the registration.
-                readable: true,
-                outbox: Outbox::default(),
-                writable_interest: false,
-                retry_send: false,
-            })
-        })?;
+        let io = self
+            .looped
+            .run(&name, stop, |registry| CanIo::register(&self.bus, self.interface, registry, Tokens::ALONE))?;
         if io.outbox.dropped() > 0 {
             tracing::debug!(bus = %self.name, dropped = io.outbox.dropped(), "CAN frames dropped while sending");
         }
@@ -261,7 +249,7 @@ impl<B: CanBus> CanServer<B> {
 }
 
 /// The bus as the event loop sees it.
-struct CanIo<'a, B> {
+pub(crate) struct CanIo<'a, B> {
     bus: &'a B,
     interface: &'static str,
     registry: Registry,
@@ -271,13 +259,41 @@ struct CanIo<'a, B> {
     writable_interest: bool,
     /// The interface refused with `ENOBUFS` past the turn's budget: turn again at once, reading too.
     retry_send: bool,
+    tokens: Tokens,
 }
 
-impl<B: CanBus> CanIo<'_, B> {
+impl<'a, B: CanBus> CanIo<'a, B> {
+    /// Registers `bus` (its clients' endpoints name `interface`) with the loop's `registry` in the shell's
+    /// token range.
+    pub(crate) fn register(
+        bus: &'a B,
+        interface: &'static str,
+        registry: &Registry,
+        tokens: Tokens,
+    ) -> io::Result<Self> {
+        registry.register(&mut SourceFd(&bus.as_raw_fd()), tokens.token(1), Interest::READABLE)?;
+        Ok(Self {
+            bus,
+            interface,
+            registry: registry.try_clone()?,
+            // Frames may have come before the registration.
+            readable: true,
+            outbox: Outbox::default(),
+            writable_interest: false,
+            retry_send: false,
+            tokens,
+        })
+    }
+
+    /// Frames dropped while sending.
+    pub(crate) fn dropped(&self) -> u64 {
+        self.outbox.dropped()
+    }
+
     fn want_writable(&mut self, want: bool) {
         if want != self.writable_interest {
             let interest = if want { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
-            if self.registry.reregister(&mut SourceFd(&self.bus.as_raw_fd()), BUS, interest).is_ok() {
+            if self.registry.reregister(&mut SourceFd(&self.bus.as_raw_fd()), self.tokens.token(1), interest).is_ok() {
                 self.writable_interest = want;
             }
         }

@@ -31,7 +31,7 @@
 
 mod endpoint;
 mod reader;
-mod shell;
+pub(crate) mod shell;
 
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -386,42 +386,14 @@ impl CustomAgent {
 
     fn spawn(&mut self) -> io::Result<Running> {
         let looped = EventLoop::new(self.agent.core())?;
-        let queue = self.options.queue.max(1);
-        let (tx, rx) = sync_channel(queue);
-        let (spare_tx, spare_rx) = sync_channel(queue);
-        let (pipe, woken) = mio::unix::pipe::new()?;
-        let wake = Arc::new(Wake { flag: WakeFlag::default(), pipe });
-        let reader = Reader {
-            name: self.name.clone(),
-            io: self.io.clone(),
-            blank: self.desc.endpoint(),
-            mode: self.mode,
-            options: self.options.clone(),
-            tx,
-            spare: spare_rx,
-            wake: wake.clone(),
-            stop: self.stop.clone(),
-        };
-        let reader = std::thread::Builder::new().name("xrce-custom-rx".into()).spawn(move || reader.run())?;
-        let mut table = self.table.take().unwrap_or_else(|| EndpointTable::new(self.options.max_endpoints));
-        table.set_max(self.options.max_endpoints);
-        let mut shell = Shell {
-            name: self.name.clone(),
-            io: self.io.clone(),
-            mode: self.mode,
-            rx,
-            spare: spare_tx,
-            wake,
-            woken,
-            table,
-            stash: None,
-            frame: Vec::new(),
-        };
+        let table = self.table.take().unwrap_or_else(|| EndpointTable::new(self.options.max_endpoints));
+        let parts = Parts { name: &self.name, desc: &self.desc, mode: self.mode, options: &self.options, io: &self.io };
+        let (mut shell, reader) = parts.start(table, &self.stop)?;
         let (label, stop) = (format!("the custom agent `{}`", self.name), self.stop.clone());
         let served = std::thread::Builder::new().name("xrce-custom".into()).spawn(move || {
             looped
                 .run(&label, &stop, |registry| {
-                    registry.register(&mut shell.woken, READER, mio::Interest::READABLE)?;
+                    shell.register(registry, READER)?;
                     Ok(shell)
                 })
                 .map(|shell| shell.table)
@@ -466,6 +438,54 @@ impl CustomAgent {
             Err(_) => return Err(CustomAgentError::Io { name, source: io::Error::other("event loop panicked") }),
         }
         closed.map_err(|source| CustomAgentError::Close { name, source })
+    }
+}
+
+/// What a custom transport is made of, to start its reader thread and loop side ([`CustomAgent`], or one
+/// transport among others in a [`super::multi::MultiServer`]).
+pub(crate) struct Parts<'a> {
+    pub name: &'a str,
+    pub desc: &'a EndpointDesc,
+    pub mode: Mode,
+    pub options: &'a CustomOptions,
+    pub io: &'a Arc<dyn CustomAgentIo>,
+}
+
+impl Parts<'_> {
+    /// Starts the reader thread (until `stop` is set or the loop side is dropped) and returns the loop side,
+    /// whose wake-up pipe the caller registers with its poll, with the reader's handle.
+    pub(crate) fn start(self, mut table: EndpointTable, stop: &Arc<AtomicBool>) -> io::Result<(Shell, JoinHandle<()>)> {
+        let queue = self.options.queue.max(1);
+        let (tx, rx) = sync_channel(queue);
+        let (spare_tx, spare_rx) = sync_channel(queue);
+        let (pipe, woken) = mio::unix::pipe::new()?;
+        let wake = Arc::new(Wake { flag: WakeFlag::default(), pipe });
+        let reader = Reader {
+            name: self.name.to_owned(),
+            io: self.io.clone(),
+            blank: self.desc.endpoint(),
+            mode: self.mode,
+            options: self.options.clone(),
+            tx,
+            spare: spare_rx,
+            wake: wake.clone(),
+            stop: stop.clone(),
+        };
+        let reader = std::thread::Builder::new().name("xrce-custom-rx".into()).spawn(move || reader.run())?;
+        table.set_max(self.options.max_endpoints);
+        let shell = Shell {
+            name: self.name.to_owned(),
+            io: self.io.clone(),
+            mode: self.mode,
+            rx,
+            spare: spare_tx,
+            wake,
+            woken,
+            table,
+            stash: None,
+            frame: Vec::new(),
+        };
+        Ok((shell, reader))
     }
 }
 

@@ -65,6 +65,45 @@ fn on_loop_thread(flag: &WakeFlag) -> bool {
     LOOP_FLAG.with(|f| std::ptr::eq(f.get(), flag))
 }
 
+/// A shell's range of `mio` tokens. Alone on its loop a shell numbers its sources from 1 ([`Tokens::ALONE`]);
+/// shells sharing one loop ([`super::multi`]) each get a range of their own, in the token's top byte, so each
+/// readiness event reaches the shell that registered the source.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Tokens {
+    base: usize,
+}
+
+/// Bits of a token left to the shell: all but the top byte.
+const LOCAL_BITS: u32 = usize::BITS - 8;
+const LOCAL_MASK: usize = (1 << LOCAL_BITS) - 1;
+
+impl Tokens {
+    /// The range of a shell alone on its loop.
+    pub const ALONE: Self = Self { base: 0 };
+    /// Most shells one loop serves (the top byte, less 0 for [`Self::ALONE`] and 255 for the loop's own).
+    pub const MAX_SHARED: usize = 254;
+
+    /// The range of shell `index` of a shared loop; none past [`Self::MAX_SHARED`].
+    pub fn shared(index: usize) -> Option<Self> {
+        (index < Self::MAX_SHARED).then(|| Self { base: (index + 1) << LOCAL_BITS })
+    }
+
+    /// The shell's token number `n` (kept below the top byte).
+    pub fn token(self, n: usize) -> Token {
+        Token(self.base | (n & LOCAL_MASK))
+    }
+
+    /// The shell's number of `token`, if the token is in its range.
+    pub fn local(self, token: Token) -> Option<usize> {
+        (token.0 & !LOCAL_MASK == self.base).then_some(token.0 & LOCAL_MASK)
+    }
+
+    /// Which shell of a shared loop `token` belongs to.
+    pub fn shell_of(token: Token) -> Option<usize> {
+        (token.0 >> LOCAL_BITS).checked_sub(1)
+    }
+}
+
 /// A shell's sources, as one [`Driver::drive`] turn sees them.
 pub trait Io<E> {
     /// Whether the ACKNACKs owed go out in their own send before the batch's samples are delivered, so a
@@ -93,28 +132,53 @@ pub trait Io<E> {
     fn send(&mut self, out: &mut Vec<Transmit<E>>, spent: &mut Spent<E>);
 }
 
+/// Where a shell's received messages go: the core itself, or (several transports on one core,
+/// [`super::multi`]) the core behind a tag naming the transport. A dynamic call per message, ~2 ns, is the
+/// price of one shell type serving both.
+pub trait Sink<E> {
+    /// Hands one message from `from` to the core.
+    fn deliver(&mut self, from: E, bytes: &[u8], now: Instant);
+    /// Forgets an endpoint that is gone.
+    fn forget(&mut self, endpoint: E);
+}
+
+impl<E: Copy + Eq + Hash + Debug> Sink<E> for Core<E> {
+    fn deliver(&mut self, from: E, bytes: &[u8], now: Instant) {
+        self.handle_datagram(from, bytes, now);
+    }
+
+    fn forget(&mut self, endpoint: E) {
+        self.forget_endpoint(endpoint);
+    }
+}
+
 /// The core as [`Io::receive`] sees it.
 pub struct Inbox<'a, E> {
-    core: &'a mut Core<E>,
+    core: &'a mut dyn Sink<E>,
     now: Instant,
     hex: bool,
     /// Messages handed to the core this turn.
     delivered: usize,
 }
 
-impl<E: Copy + Eq + Hash + Debug> Inbox<'_, E> {
+impl<'a, E: Debug> Inbox<'a, E> {
+    /// An inbox on `core` for a turn at `now`; `hex`: dump every message (verbosity 6).
+    pub fn new(core: &'a mut dyn Sink<E>, now: Instant, hex: bool) -> Self {
+        Self { core, now, hex, delivered: 0 }
+    }
+
     /// Hands one received message from `from` to the core.
     pub fn deliver(&mut self, from: E, bytes: &[u8]) {
         if self.hex {
             hexdump("recv", &from, bytes);
         }
-        self.core.handle_datagram(from, bytes, self.now);
+        self.core.deliver(from, bytes, self.now);
         self.delivered += 1;
     }
 
     /// Forgets an endpoint that is gone (a closed TCP connection).
     pub fn forget(&mut self, endpoint: E) {
-        self.core.forget_endpoint(endpoint);
+        self.core.forget(endpoint);
     }
 
     /// The turn's time.
@@ -185,7 +249,7 @@ impl<E: Copy + Eq + Hash + Debug> Driver<E> {
         let hex = tracing::enabled!(target: "xrce_agent::hexdump", tracing::Level::TRACE);
         let now = Instant::now();
         self.give_back(c);
-        let mut inbox = Inbox { core: c, now, hex, delivered: 0 };
+        let mut inbox = Inbox::new(&mut *c, now, hex);
         io.receive(&mut inbox)?;
         let delivered = inbox.delivered;
         if I::EARLY_ACKNACKS {

@@ -10,6 +10,7 @@ pub mod custom;
 pub mod discovery;
 pub mod drive;
 pub mod home;
+pub mod multi;
 #[cfg(target_os = "linux")]
 pub mod serial;
 pub mod tcp;

@@ -28,7 +28,7 @@ use mio::unix::SourceFd;
 use mio::{Interest, Registry, Token};
 use xrce_proto::framing::serial::{encode_frame, max_encoded_len, AddressFilter, Event, FrameDecoder};
 
-use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::drive::{EventLoop, Inbox, Io, Spent, Tokens};
 use super::{SharedCore, MAX_BLOCK};
 use crate::core::Transmit;
 
@@ -176,41 +176,48 @@ impl SerialServer {
             return Err(io::Error::other(format!("too many serial lines: {}", self.lines.len())));
         }
         let name = format!("the serial server on {}", self.names().join(" "));
-        let now = Instant::now();
-        EventLoop::new(self.core)?.run(&name, stop, |registry| {
-            let mut lines = Vec::with_capacity(self.lines.len());
-            for (index, line) in self.lines.into_iter().enumerate() {
-                registry.register(&mut SourceFd(&line.file.as_raw_fd()), token(index), Interest::READABLE)?;
-                lines.push(LineIo {
-                    name: line.name.clone(),
-                    device: super::device_name(&line.name),
-                    reopen: line.reopen.clone(),
-                    line: Some(line),
-                    decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
-                    // Bytes may have arrived before the registration.
-                    readable: true,
-                    retry_at: None,
-                    outbox: Vec::new(),
-                    progress_at: now,
-                    writable_interest: false,
-                });
-            }
-            Ok(SerialIo { lines, registry: registry.try_clone()?, buf: vec![0u8; 4096] })
-        })?;
+        EventLoop::new(self.core)?
+            .run(&name, stop, |registry| SerialIo::register(self.lines, registry, Tokens::ALONE))?;
         Ok(())
     }
 }
 
-/// Line tokens are `1 + index`.
-fn token(index: usize) -> Token {
-    Token(index.saturating_add(1))
+/// Line token numbers are `1 + index`.
+fn token(tokens: Tokens, index: usize) -> Token {
+    tokens.token(index.saturating_add(1))
 }
 
 /// The lines, as the event loop sees them.
-struct SerialIo {
+pub(crate) struct SerialIo {
     lines: Vec<LineIo>,
     registry: Registry,
     buf: Vec<u8>,
+    tokens: Tokens,
+}
+
+impl SerialIo {
+    /// Registers `lines` with the loop's `registry` in the shell's token range (line `i` is number `1 + i`).
+    pub(crate) fn register(lines: Vec<Line>, registry: &Registry, tokens: Tokens) -> io::Result<Self> {
+        let now = Instant::now();
+        let mut served = Vec::with_capacity(lines.len());
+        for (index, line) in lines.into_iter().enumerate() {
+            registry.register(&mut SourceFd(&line.file.as_raw_fd()), token(tokens, index), Interest::READABLE)?;
+            served.push(LineIo {
+                name: line.name.clone(),
+                device: super::device_name(&line.name),
+                reopen: line.reopen.clone(),
+                line: Some(line),
+                decoder: FrameDecoder::new(vec![0u8; MAX_MESSAGE], AddressFilter::Only(AGENT_ADDRESS)),
+                // Bytes may have arrived before the registration.
+                readable: true,
+                retry_at: None,
+                outbox: Vec::new(),
+                progress_at: now,
+                writable_interest: false,
+            });
+        }
+        Ok(Self { lines: served, registry: registry.try_clone()?, buf: vec![0u8; 4096], tokens })
+    }
 }
 
 /// One line's reading and writing state.
@@ -237,7 +244,9 @@ struct LineIo {
 
 impl Io<SerialEndpoint> for SerialIo {
     fn ready(&mut self, event: &Readiness) {
-        if let Some(l) = event.token().0.checked_sub(1).and_then(|i| self.lines.get_mut(i)) {
+        if let Some(l) =
+            self.tokens.local(event.token()).and_then(|n| n.checked_sub(1)).and_then(|i| self.lines.get_mut(i))
+        {
             l.readable |= event.is_readable() || event.is_read_closed() || event.is_error();
         }
     }
@@ -248,7 +257,7 @@ impl Io<SerialEndpoint> for SerialIo {
             let retry = l.retry_at.is_some_and(|t| t <= now);
             if l.line.is_none() {
                 if retry {
-                    l.reopen(&self.registry, token(usize::from(index)), now);
+                    l.reopen(&self.registry, token(self.tokens, usize::from(index)), now);
                 }
                 if l.line.is_none() {
                     continue;
@@ -307,7 +316,7 @@ impl Io<SerialEndpoint> for SerialIo {
             if want_writable != l.writable_interest {
                 let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
                 let fd = line.file.as_raw_fd();
-                if self.registry.reregister(&mut SourceFd(&fd), token(index), interest).is_ok() {
+                if self.registry.reregister(&mut SourceFd(&fd), token(self.tokens, index), interest).is_ok() {
                     l.writable_interest = want_writable;
                 }
             }

@@ -20,7 +20,7 @@ use mio::{Interest, Registry, Token};
 use xrce_proto::framing::tcp::{prefix, TcpDecoder, TcpEvent, MAX_MESSAGE_LEN, PREFIX_LEN};
 
 use super::discovery::DiscoveryServer;
-use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::drive::{EventLoop, Inbox, Io, Spent, Tokens};
 use super::SharedCore;
 use crate::core::Transmit;
 
@@ -35,8 +35,9 @@ pub const MAX_OUTBOX_BYTES: usize = 4 * 1024 * 1024;
 /// Messages written in one vectored write (two slices each: length prefix and message).
 const WRITE_BATCH: usize = 32;
 
-const LISTENER: Token = Token(1);
-/// Connection tokens are `FIRST_CONN + ConnId`.
+/// The listener's token number in the shell's range.
+const LISTENER: usize = 1;
+/// Connection token numbers are `FIRST_CONN + ConnId`.
 const FIRST_CONN: usize = 2;
 
 /// Identifies a TCP connection to the core: the peer's address and a number unique to the server (a peer
@@ -61,12 +62,12 @@ impl std::fmt::Display for ConnId {
     }
 }
 
-fn token(number: u64) -> Token {
-    Token(usize::try_from(number).unwrap_or(usize::MAX).saturating_add(FIRST_CONN))
+fn token(tokens: Tokens, number: u64) -> Token {
+    tokens.token(usize::try_from(number).unwrap_or(usize::MAX).saturating_add(FIRST_CONN))
 }
 
-fn number_of(token: Token) -> Option<u64> {
-    token.0.checked_sub(FIRST_CONN).and_then(|n| u64::try_from(n).ok())
+fn number_of(tokens: Tokens, token: Token) -> Option<u64> {
+    tokens.local(token)?.checked_sub(FIRST_CONN).and_then(|n| u64::try_from(n).ok())
 }
 
 /// A TCP server around a shared core.
@@ -177,27 +178,15 @@ impl TcpServer {
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
         let name = format!("the TCP server on {}", self.listener.local_addr()?);
-        let mut io = self.looped.run(&name, stop, |registry| {
-            let mut listener = TcpListener::from_std(self.listener.try_clone()?);
-            registry.register(&mut listener, LISTENER, Interest::READABLE)?;
-            Ok(TcpIo {
-                listener,
-                registry: registry.try_clone()?,
-                conns: HashMap::new(),
-                next_id: 1,
-                buf: vec![0u8; 64 * 1024],
-                readable: Vec::new(),
-            })
-        })?;
-        for (_, conn) in io.conns.drain() {
-            let _ = conn.stream.shutdown(Shutdown::Both);
-        }
+        let mut io =
+            self.looped.run(&name, stop, |registry| TcpIo::register(&self.listener, registry, Tokens::ALONE))?;
+        io.close_all();
         Ok(())
     }
 }
 
 /// The listener and the connections, as the event loop sees them.
-struct TcpIo {
+pub(crate) struct TcpIo {
     listener: TcpListener,
     registry: Registry,
     /// By connection number.
@@ -206,14 +195,15 @@ struct TcpIo {
     buf: Vec<u8>,
     /// Connections reported readable (or closed) since the last turn.
     readable: Vec<u64>,
+    tokens: Tokens,
 }
 
 impl Io<ConnId> for TcpIo {
     fn ready(&mut self, event: &Event) {
-        match event.token() {
-            LISTENER => self.accept(),
-            token => {
-                if let Some(number) = number_of(token) {
+        match self.tokens.local(event.token()) {
+            Some(LISTENER) => self.accept(),
+            _ => {
+                if let Some(number) = number_of(self.tokens, event.token()) {
                     if event.is_readable() || event.is_read_closed() || event.is_error() {
                         self.readable.push(number);
                     }
@@ -256,7 +246,7 @@ impl Io<ConnId> for TcpIo {
             let want_writable = !conn.outbox.is_empty();
             if want_writable != conn.writable_interest {
                 let interest = if want_writable { Interest::READABLE | Interest::WRITABLE } else { Interest::READABLE };
-                if self.registry.reregister(&mut conn.stream, token(number), interest).is_ok() {
+                if self.registry.reregister(&mut conn.stream, token(self.tokens, number), interest).is_ok() {
                     conn.writable_interest = want_writable;
                 }
             }
@@ -275,6 +265,28 @@ impl Io<ConnId> for TcpIo {
 }
 
 impl TcpIo {
+    /// Registers (a clone of) `listener` with the loop's `registry` in the shell's token range.
+    pub(crate) fn register(listener: &std::net::TcpListener, registry: &Registry, tokens: Tokens) -> io::Result<Self> {
+        let mut listener = TcpListener::from_std(listener.try_clone()?);
+        registry.register(&mut listener, tokens.token(LISTENER), Interest::READABLE)?;
+        Ok(Self {
+            listener,
+            registry: registry.try_clone()?,
+            conns: HashMap::new(),
+            next_id: 1,
+            buf: vec![0u8; 64 * 1024],
+            readable: Vec::new(),
+            tokens,
+        })
+    }
+
+    /// Shuts every connection down (the server stops).
+    pub(crate) fn close_all(&mut self) {
+        for (_, conn) in self.conns.drain() {
+            let _ = conn.stream.shutdown(Shutdown::Both);
+        }
+    }
+
     fn accept(&mut self) {
         loop {
             let (mut stream, peer) = match self.listener.accept() {
@@ -293,7 +305,7 @@ impl TcpIo {
             let id = ConnId { number: self.next_id, peer };
             self.next_id += 1;
             let _ = stream.set_nodelay(true);
-            if let Err(e) = self.registry.register(&mut stream, token(id.number), Interest::READABLE) {
+            if let Err(e) = self.registry.register(&mut stream, token(self.tokens, id.number), Interest::READABLE) {
                 tracing::warn!(%peer, "cannot serve TCP connection: {e}");
                 continue;
             }
@@ -364,7 +376,10 @@ mod tests {
         let id = ConnId { number: 3, peer: "127.0.0.1:40000".parse().unwrap() };
         assert_eq!(format!("{id:?}"), "127.0.0.1:40000#3");
         assert_eq!(id.to_string(), "127.0.0.1:40000#3");
-        assert_eq!(number_of(token(id.number)), Some(3));
-        assert_eq!(number_of(WAKER), None);
+        assert_eq!(number_of(Tokens::ALONE, token(Tokens::ALONE, id.number)), Some(3));
+        assert_eq!(number_of(Tokens::ALONE, WAKER), None);
+        let shared = Tokens::shared(2).unwrap();
+        assert_eq!(number_of(shared, token(shared, id.number)), Some(3));
+        assert_eq!(number_of(shared, token(Tokens::ALONE, id.number)), None, "another shell's token");
     }
 }

@@ -18,12 +18,12 @@ use std::sync::atomic::AtomicBool;
 
 use mio::event::Event;
 use mio::unix::SourceFd;
-use mio::{Interest, Token};
+use mio::{Interest, Registry};
 use socket2::{Domain, Protocol, Socket, Type};
 
 use super::batch::{RecvBatch, SendBatch, BATCH};
 use super::discovery::DiscoveryServer;
-use super::drive::{EventLoop, Inbox, Io, Spent};
+use super::drive::{EventLoop, Inbox, Io, Spent, Tokens};
 use super::SharedCore;
 use crate::core::Transmit;
 
@@ -31,8 +31,6 @@ use crate::core::Transmit;
 pub const MAX_DATAGRAM: usize = 65_535;
 /// Requested `SO_RCVBUF` / `SO_SNDBUF` (the kernel caps it at `net.core.rmem_max` / `wmem_max`).
 pub const SOCKET_BUFFER: usize = 4 << 20;
-
-const SOCKET: Token = Token(1);
 
 /// A UDP server around a shared core.
 #[derive(Debug)]
@@ -81,24 +79,13 @@ impl UdpServer {
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &AtomicBool) -> io::Result<()> {
         let name = format!("the UDP server on {}", self.socket.local_addr()?);
-        self.looped.run(&name, stop, |registry| {
-            registry.register(&mut SourceFd(&self.socket.as_raw_fd()), SOCKET, Interest::READABLE)?;
-            Ok(UdpIo {
-                socket: &self.socket,
-                rx: RecvBatch::new(MAX_DATAGRAM),
-                tx: SendBatch::new(),
-                // Datagrams may have been queued before the registration.
-                readable: true,
-                busy: false,
-                fetched: 0,
-            })
-        })?;
+        self.looped.run(&name, stop, |registry| UdpIo::register(&self.socket, registry, Tokens::ALONE))?;
         Ok(())
     }
 }
 
 /// The socket as the event loop sees it.
-struct UdpIo<'a> {
+pub(crate) struct UdpIo<'a> {
     socket: &'a UdpSocket,
     rx: RecvBatch,
     tx: SendBatch,
@@ -118,7 +105,21 @@ struct UdpIo<'a> {
     fetched: usize,
 }
 
-impl UdpIo<'_> {
+impl<'a> UdpIo<'a> {
+    /// Registers `socket` with the loop's `registry` in the shell's token range.
+    pub(crate) fn register(socket: &'a UdpSocket, registry: &Registry, tokens: Tokens) -> io::Result<Self> {
+        registry.register(&mut SourceFd(&socket.as_raw_fd()), tokens.token(1), Interest::READABLE)?;
+        Ok(Self {
+            socket,
+            rx: RecvBatch::new(MAX_DATAGRAM),
+            tx: SendBatch::new(),
+            // Datagrams may have been queued before the registration.
+            readable: true,
+            busy: false,
+            fetched: 0,
+        })
+    }
+
     fn fetch(&mut self) -> io::Result<()> {
         self.fetched = self.rx.recv(self.socket)?;
         self.readable = self.fetched == BATCH;

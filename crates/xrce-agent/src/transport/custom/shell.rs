@@ -24,21 +24,28 @@ const BATCH: usize = 64;
 const MAX_STALLS: usize = 16;
 
 /// The custom transport as the event loop sees it.
-pub(super) struct Shell {
-    pub name: String,
-    pub io: Arc<dyn CustomAgentIo>,
-    pub mode: Mode,
-    pub rx: Receiver<Incoming>,
+pub(crate) struct Shell {
+    pub(super) name: String,
+    pub(super) io: Arc<dyn CustomAgentIo>,
+    pub(super) mode: Mode,
+    pub(super) rx: Receiver<Incoming>,
     /// Buffers back to the reader.
-    pub spare: SyncSender<Vec<u8>>,
-    pub wake: Arc<Wake>,
+    pub(super) spare: SyncSender<Vec<u8>>,
+    pub(super) wake: Arc<Wake>,
     /// The loop's end of the reader's wake-up pipe.
-    pub woken: mio::unix::pipe::Receiver,
-    pub table: EndpointTable,
+    pub(super) woken: mio::unix::pipe::Receiver,
+    pub(super) table: EndpointTable,
     /// A message taken by [`Io::prefetch`], delivered first in the next turn.
-    pub stash: Option<Incoming>,
+    pub(super) stash: Option<Incoming>,
     /// Scratch for framing.
-    pub frame: Vec<u8>,
+    pub(super) frame: Vec<u8>,
+}
+
+impl Shell {
+    /// Registers the reader's wake-up pipe with the loop's `registry` under `token`.
+    pub(crate) fn register(&mut self, registry: &mio::Registry, token: mio::Token) -> io::Result<()> {
+        registry.register(&mut self.woken, token, mio::Interest::READABLE)
+    }
 }
 
 impl Io<EndpointId> for Shell {
@@ -166,7 +173,7 @@ fn endpoint_name((endpoint, address): &(Endpoint, Option<u8>)) -> Box<str> {
 /// outlives a table lost with a failed loop, and the table outlives a restart, because the core keeps its
 /// clients' ids across both), and at most `max` endpoints are kept; a new one beyond that evicts the least
 /// recently used, whose client is reached again as soon as it sends (under a new id).
-pub(super) struct EndpointTable {
+pub(crate) struct EndpointTable {
     ids: HashMap<(Endpoint, Option<u8>), EndpointId>,
     entries: HashMap<EndpointId, Entry>,
     max: usize,
