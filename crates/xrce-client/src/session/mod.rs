@@ -957,7 +957,7 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
 ) {
     for raw in Submessages::new(msg, start) {
         let Ok(raw) = raw else { return };
-        let Ok(sub) = raw.decode() else { return };
+        let Ok(sub) = raw.decode_sent_by_agent() else { return };
         match sub {
             Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
                 st.session_retry = None;
