@@ -297,7 +297,7 @@ proptest! {
             let unknown = matches!(as_client, Submessage::Unknown { id, payload, .. } if id == sub.id() && payload == raw.payload());
             prop_assert!(unknown, "{:?} from a client's decoder", as_client);
         } else {
-            prop_assert_eq!(normalise(as_client, endian), normalise(sub.clone(), endian));
+            prop_assert_eq!(normalise(as_client, endian), normalise(sub, endian));
         }
         let decoded = raw.decode().expect("decodes");
         prop_assert!(raws.next().is_none());
