@@ -325,3 +325,25 @@ proptest! {
         }
     }
 }
+
+/// An INFO whose configuration is not the agent's or a client's: decoded whole by `decode`, refused by a client's
+/// decoder (which carries no entity or profile representation decoders); the agent's own is decoded by both.
+#[test]
+fn a_clients_decoder_takes_only_the_agents_or_a_clients_configuration() {
+    let reply = BaseObjectReply::default();
+    let profile =
+        ObjectVariant::Profile { kind: ObjectKind::QosProfile, representation: Representation::Reference("qos") };
+    let agent = ObjectVariant::Agent(AgentRepresentation::EPROSIMA);
+    for (config, client_decodes) in [(profile, false), (agent, true)] {
+        let info = Submessage::Info(Info { reply, config: Some(config), activity: None });
+        let header = MessageHeader::new(0x81, StreamId::NONE, 0, ClientKey::from_u32(1));
+        let mut buf = [0u8; 256];
+        let mut b = MessageBuilder::new(&mut buf, &header).expect("header");
+        b.push(&info, Endianness::Little).expect("fits");
+        let n = b.finish();
+        let (_, mut raws) = parse(&buf[..n]).expect("parse");
+        let raw = raws.next().expect("one submessage").expect("in bounds");
+        assert_eq!(raw.decode().expect("decodes"), info);
+        assert_eq!(raw.decode_sent_by_agent().ok(), client_decodes.then_some(info));
+    }
+}

@@ -932,7 +932,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
 
 /// The implementation status of the INFO `msg` starts with, if it does.
 fn first_info(msg: &[u8], hs: usize) -> Option<u8> {
-    match Submessages::new(msg, hs).next()?.ok()?.decode().ok()? {
+    match Submessages::new(msg, hs).next()?.ok()?.decode_sent_by_agent().ok()? {
         Submessage::Info(info) => Some(info.reply.result.implementation_status),
         _ => None,
     }

@@ -180,8 +180,9 @@ impl<'a> Submessage<'a> {
 
     /// As [`decode`](Self::decode), for a client: only the kinds an agent sends are decoded; requests only a
     /// client sends (CREATE_CLIENT, CREATE, DELETE, WRITE_DATA, READ_DATA, TIMESTAMP) come back as
-    /// [`Unknown`](Self::Unknown), and their decoders (the object representations above all, ~3 KB of
-    /// firmware `.text`) stay out of a client's build.
+    /// [`Unknown`](Self::Unknown), and the configuration an INFO carries is decoded only for the agent or a
+    /// client ([`Info::decode_sent_to_client`]). The entity representations' decoders (~4 KB of firmware
+    /// `.text`) then stay out of a client's build.
     pub fn decode_sent_by_agent(header: SubmessageHeader, buf: &'a [u8], start: usize, end: usize) -> Result<Self> {
         Self::decode_kinds::<false>(header, buf, start, end)
     }
@@ -210,7 +211,8 @@ impl<'a> Submessage<'a> {
             id::DELETE if CLIENT_REQUESTS => Self::Delete(r.read()?),
             id::STATUS_AGENT => Self::StatusAgent(r.read()?),
             id::STATUS => Self::Status(r.read()?),
-            id::INFO => Self::Info(r.read()?),
+            id::INFO if CLIENT_REQUESTS => Self::Info(r.read()?),
+            id::INFO => Self::Info(Info::decode_sent_to_client(&mut r)?),
             id::DATA => Self::Data(Self::data_payload(&mut r, flags)?),
             id::WRITE_DATA if CLIENT_REQUESTS => Self::WriteData(Self::data_payload(&mut r, flags)?),
             id::READ_DATA if CLIENT_REQUESTS => Self::ReadData(r.read()?),
