@@ -38,11 +38,11 @@ impl Token {
     pub fn new(psk: &[u8], key: ClientKey, session_id: u8, nonce: u64) -> Self {
         let mut out = [0u8; TOKEN_LEN];
         let (prefix, rest) = out.split_at_mut(PREFIX.len());
-        prefix.copy_from_slice(PREFIX);
+        crate::bytes::copy(prefix, PREFIX);
         let (nonce_hex, rest) = rest.split_at_mut(16);
         write_hex(&nonce.to_be_bytes(), nonce_hex);
         let (dot, mac_hex) = rest.split_at_mut(1);
-        dot.copy_from_slice(b".");
+        crate::bytes::copy(dot, b".");
         write_hex(&mac(psk, key, session_id, nonce).finalize().into_bytes(), mac_hex);
         Self(out)
     }

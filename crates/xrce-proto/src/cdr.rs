@@ -191,7 +191,7 @@ impl<'a> Reader<'a> {
     pub fn read_array<const N: usize>(&mut self) -> Result<[u8; N]> {
         let bytes = self.read_bytes(N)?;
         let mut out = [0u8; N];
-        out.copy_from_slice(bytes);
+        crate::bytes::copy(&mut out, bytes);
         Ok(out)
     }
 
@@ -381,7 +381,7 @@ impl<'b> Writer<'b> {
     pub fn write_bytes(&mut self, bytes: &[u8]) {
         let end = self.pos.saturating_add(bytes.len());
         if let Some(dst) = self.buf.get_mut(self.pos..end) {
-            dst.copy_from_slice(bytes);
+            crate::bytes::copy(dst, bytes);
         }
         self.pos = end;
     }
@@ -457,14 +457,14 @@ impl<'b> Writer<'b> {
             Endianness::Big => v.to_be_bytes(),
         };
         if let Some(dst) = self.buf.get_mut(at..at.saturating_add(4)) {
-            dst.copy_from_slice(&bytes);
+            crate::bytes::copy(dst, &bytes);
         }
     }
 
     /// Overwrites two bytes at `at` with `v` little endian (used to patch lengths after the fact).
     pub fn patch_u16_le(&mut self, at: usize, v: u16) {
         if let Some(dst) = self.buf.get_mut(at..at.saturating_add(2)) {
-            dst.copy_from_slice(&v.to_le_bytes());
+            crate::bytes::copy(dst, &v.to_le_bytes());
         }
     }
 }

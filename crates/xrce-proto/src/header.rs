@@ -71,7 +71,7 @@ impl MessageHeader {
         let seq = self.sequence_nr.to_le_bytes();
         let key = self.client_key.unwrap_or_default().0;
         let bytes = [self.session_id, self.stream_id.0, seq[0], seq[1], key[0], key[1], key[2], key[3]];
-        dst.copy_from_slice(bytes.get(..size).unwrap_or(&bytes));
+        crate::bytes::copy(dst, bytes.get(..size).unwrap_or(&bytes));
         Ok(size)
     }
 }

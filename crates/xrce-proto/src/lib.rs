@@ -15,6 +15,7 @@
 
 #[cfg(feature = "psk")]
 pub mod auth;
+pub mod bytes;
 pub mod cdr;
 pub mod framing;
 pub mod header;

@@ -35,6 +35,11 @@ impl<'a> RawSubmessage<'a> {
     pub fn decode(&self) -> Result<Submessage<'a>> {
         Submessage::decode(self.header, self.message, self.start, self.end)
     }
+
+    /// Decodes the payload as a client does ([`Submessage::decode_sent_by_agent`]).
+    pub fn decode_sent_by_agent(&self) -> Result<Submessage<'a>> {
+        Submessage::decode_sent_by_agent(self.header, self.message, self.start, self.end)
+    }
 }
 
 impl<'a> RawSubmessage<'a> {

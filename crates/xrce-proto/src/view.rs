@@ -316,7 +316,7 @@ impl FragmentHead {
     pub fn set_in(self, buf: &mut [u8]) -> bool {
         match buf.get_mut(..Self::SIZE) {
             Some(dst) => {
-                dst.copy_from_slice(&self.to_bytes());
+                crate::bytes::copy(dst, &self.to_bytes());
                 true
             }
             None => false,

@@ -285,6 +285,20 @@ proptest! {
         prop_assert_eq!(h, header);
         let raw = raws.next().expect("one submessage").expect("in bounds");
         prop_assert_eq!(raw.header.endianness(), endian);
+        // A client's decoder: the same for what an agent sends, `Unknown` with the payload for the requests only a
+        // client sends.
+        let as_client = raw.decode_sent_by_agent().expect("decodes");
+        let client_request = matches!(
+            sub,
+            Submessage::CreateClient(_) | Submessage::Create(_) | Submessage::Delete(_)
+                | Submessage::WriteData(_) | Submessage::ReadData(_) | Submessage::Timestamp(_)
+        );
+        if client_request {
+            let unknown = matches!(as_client, Submessage::Unknown { id, payload, .. } if id == sub.id() && payload == raw.payload());
+            prop_assert!(unknown, "{:?} from a client's decoder", as_client);
+        } else {
+            prop_assert_eq!(normalise(as_client, endian), normalise(sub, endian));
+        }
         let decoded = raw.decode().expect("decodes");
         prop_assert!(raws.next().is_none());
         prop_assert_eq!(normalise(decoded, endian), normalise(sub, endian));
@@ -301,6 +315,7 @@ proptest! {
     fn decoding_arbitrary_bytes_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..256)) {
         if let Ok((_, raws)) = parse(&bytes) {
             for raw in raws.flatten() {
+                let _ = raw.decode_sent_by_agent();
                 if let Ok(Submessage::Create(c)) = raw.decode() {
                     if let ObjectVariant::Entity(e) = c.variant {
                         let _ = e.binary(Endianness::Little);
@@ -308,5 +323,27 @@ proptest! {
                 }
             }
         }
+    }
+}
+
+/// An INFO whose configuration is not the agent's or a client's: decoded whole by `decode`, refused by a client's
+/// decoder (which carries no entity or profile representation decoders); the agent's own is decoded by both.
+#[test]
+fn a_clients_decoder_takes_only_the_agents_or_a_clients_configuration() {
+    let reply = BaseObjectReply::default();
+    let profile =
+        ObjectVariant::Profile { kind: ObjectKind::QosProfile, representation: Representation::Reference("qos") };
+    let agent = ObjectVariant::Agent(AgentRepresentation::EPROSIMA);
+    for (config, client_decodes) in [(profile, false), (agent, true)] {
+        let info = Submessage::Info(Info { reply, config: Some(config), activity: None });
+        let header = MessageHeader::new(0x81, StreamId::NONE, 0, ClientKey::from_u32(1));
+        let mut buf = [0u8; 256];
+        let mut b = MessageBuilder::new(&mut buf, &header).expect("header");
+        b.push(&info, Endianness::Little).expect("fits");
+        let n = b.finish();
+        let (_, mut raws) = parse(&buf[..n]).expect("parse");
+        let raw = raws.next().expect("one submessage").expect("in bounds");
+        assert_eq!(raw.decode().expect("decodes"), info);
+        assert_eq!(raw.decode_sent_by_agent().ok(), client_decodes.then_some(info));
     }
 }

@@ -19,13 +19,13 @@ macro_rules! numeric {
             fn put(self, big: bool, out: &mut [u8; 8]) {
                 let b = if big { self.to_be_bytes() } else { self.to_le_bytes() };
                 if let Some(dst) = out.get_mut(..$n) {
-                    dst.copy_from_slice(&b);
+                    xrce_proto::bytes::copy(dst, &b);
                 }
             }
             fn get(big: bool, bytes: &[u8; 8]) -> Self {
                 let mut b = [0u8; $n];
                 if let Some(src) = bytes.get(..$n) {
-                    b.copy_from_slice(src);
+                    xrce_proto::bytes::copy(&mut b, src);
                 }
                 if big { <$t>::from_be_bytes(b) } else { <$t>::from_le_bytes(b) }
             }

@@ -932,7 +932,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
 
 /// The implementation status of the INFO `msg` starts with, if it does.
 fn first_info(msg: &[u8], hs: usize) -> Option<u8> {
-    match Submessages::new(msg, hs).next()?.ok()?.decode().ok()? {
+    match Submessages::new(msg, hs).next()?.ok()?.decode_sent_by_agent().ok()? {
         Submessage::Info(info) => Some(info.reply.result.implementation_status),
         _ => None,
     }
@@ -957,7 +957,7 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
 ) {
     for raw in Submessages::new(msg, start) {
         let Ok(raw) = raw else { return };
-        let Ok(sub) = raw.decode() else { return };
+        let Ok(sub) = raw.decode_sent_by_agent() else { return };
         match sub {
             Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
                 st.session_retry = None;

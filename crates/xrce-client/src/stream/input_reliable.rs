@@ -87,7 +87,7 @@ impl<'a> InputReliable<'a> {
     fn set_len_at(&mut self, index: usize, len: usize) {
         let at = index * self.slot;
         if let Some(dst) = self.buf.get_mut(at..at + 2) {
-            dst.copy_from_slice(&u16::try_from(len).unwrap_or(0).to_le_bytes());
+            xrce_proto::bytes::copy(dst, &u16::try_from(len).unwrap_or(0).to_le_bytes());
         }
     }
 
@@ -114,10 +114,8 @@ impl<'a> InputReliable<'a> {
             return Received::Rejected;
         }
         let at = self.index(seq_nr) * self.slot + SLOT_LEN_WORD;
-        match self.buf.get_mut(at..at + msg.len()) {
-            Some(dst) => dst.copy_from_slice(msg),
-            None => return Received::Rejected,
-        }
+        let Some(dst) = self.buf.get_mut(at..at + msg.len()) else { return Received::Rejected };
+        xrce_proto::bytes::copy(dst, msg);
         self.set_len_at(self.index(seq_nr), msg.len());
         Received::Stored
     }

@@ -89,7 +89,7 @@ impl<'p> Parts<'p> {
             }
             let n = src.len().min(dst.len() - done);
             if let (Some(d), Some(s)) = (dst.get_mut(done..done + n), src.get(..n)) {
-                d.copy_from_slice(s);
+                xrce_proto::bytes::copy(d, s);
             }
             done += n;
             self.offset += n;

@@ -97,7 +97,7 @@ impl<'a> OutputBestEffort<'a> {
         let header = MessageHeader::new(session_id, stream, seq_nr, key);
         let hs = header.encode(dst).ok()?;
         let body = self.buf.get(hs..self.len)?;
-        dst.get_mut(hs..self.len)?.copy_from_slice(body);
+        xrce_proto::bytes::copy(dst.get_mut(hs..self.len)?, body);
         dst.get_mut(self.len..len)?.fill(0);
         self.last_sent = seq_nr;
         self.len = 0;

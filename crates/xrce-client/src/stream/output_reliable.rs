@@ -90,7 +90,7 @@ impl Slots<'_> {
     fn set_word(&mut self, seq_nr: u16, half: usize, v: u16) {
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot + half;
         if let Some(dst) = self.buf.get_mut(at..at + 2) {
-            dst.copy_from_slice(&v.to_le_bytes());
+            xrce_proto::bytes::copy(dst, &v.to_le_bytes());
         }
     }
 
@@ -103,7 +103,7 @@ impl Slots<'_> {
         let word = u32::from(u16::try_from(len).unwrap_or(0)) | u32::from(flags) << 16;
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot;
         if let Some(dst) = self.buf.get_mut(at..at + SLOT_LEN_WORD) {
-            dst.copy_from_slice(&word.to_le_bytes());
+            xrce_proto::bytes::copy(dst, &word.to_le_bytes());
         }
     }
 
@@ -241,7 +241,7 @@ impl<'a> OutputReliable<'a> {
             return Err(Error::WouldBlock);
         }
         if let Some(dst) = self.content_mut(target).get_mut(hs..hs + body.len()) {
-            dst.copy_from_slice(body);
+            xrce_proto::bytes::copy(dst, body);
         }
         self.set_len(target, hs + body.len(), if ends_with_fragment { ENDS_WITH_FRAGMENT } else { 0 });
         // Nothing is appended after a FRAGMENT; a plain message may take more submessages.
@@ -477,7 +477,7 @@ impl<'a> OutputReliable<'a> {
             let n = (cap - len).min(c.remaining).min(data.len());
             let (now, later) = data.split_at(n);
             if let Some(dst) = self.content_mut(c.seq).get_mut(len..len + n) {
-                dst.copy_from_slice(now);
+                xrce_proto::bytes::copy(dst, now);
             }
             data = later;
             taken += n;
@@ -528,7 +528,7 @@ impl<'a> OutputReliable<'a> {
         let padded = if self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { submessage_offset(len) };
         let dst = out.get_mut(..padded)?;
         let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
-        dst.get_mut(hs..len)?.copy_from_slice(self.slots.content(seq_nr).get(hs..len)?);
+        xrce_proto::bytes::copy(dst.get_mut(hs..len)?, self.slots.content(seq_nr).get(hs..len)?);
         dst.get_mut(len..padded)?.fill(0);
         Some(padded)
     }

@@ -97,7 +97,7 @@ impl<S: CanSocket> Transport for CanTransport<S> {
             if frame.id() == Some(self.id) {
                 if let Ok(msg) = frame.message() {
                     let dst = buf.get_mut(..msg.len()).ok_or(TransportError::MessageTooLarge)?;
-                    dst.copy_from_slice(msg);
+                    xrce_proto::bytes::copy(dst, msg);
                     return Ok(Some(msg.len()));
                 }
             }

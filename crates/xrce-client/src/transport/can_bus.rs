@@ -96,9 +96,9 @@ impl BusNode {
         let mut record = [0u8; RECORD];
         let (head, data) = record.split_at_mut(5);
         let (id, len) = head.split_at_mut(4);
-        id.copy_from_slice(&frame.can_id.to_le_bytes());
+        xrce_proto::bytes::copy(id, &frame.can_id.to_le_bytes());
         len.fill(frame.len);
-        data.copy_from_slice(&frame.data);
+        xrce_proto::bytes::copy(data, &frame.data);
         let mut guard = lock(&self.bus);
         let state = &mut *guard;
         state.stats.frames += 1;
@@ -168,7 +168,7 @@ impl BusNode {
 fn from_record(record: &[u8; RECORD]) -> Frame {
     let (head, data) = record.split_at(5);
     let mut id = [0u8; 4];
-    id.copy_from_slice(head.get(..4).unwrap_or(&[0; 4]));
+    xrce_proto::bytes::copy(&mut id, head.get(..4).unwrap_or(&[0; 4]));
     let mut frame = Frame::from_parts(u32::from_le_bytes(id), data);
     frame.len = head.get(4).copied().unwrap_or(0).min(64);
     frame

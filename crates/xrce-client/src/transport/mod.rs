@@ -281,7 +281,7 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                     continue;
                 }
                 let dst = buf.get_mut(..payload.len()).ok_or(TransportError::MessageTooLarge)?;
-                dst.copy_from_slice(payload);
+                xrce_proto::bytes::copy(dst, payload);
                 return Ok(Some(payload.len()));
             }
         }

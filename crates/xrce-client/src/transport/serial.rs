@@ -269,7 +269,7 @@ impl Transport for SerialTransport {
                 if let Some(Event::Frame { src, payload, .. }) = event {
                     if src == self.remote_addr {
                         let dst = buf.get_mut(..payload.len()).ok_or(TransportError::MessageTooLarge)?;
-                        dst.copy_from_slice(payload);
+                        xrce_proto::bytes::copy(dst, payload);
                         return Ok(Some(payload.len()));
                     }
                 }

@@ -89,7 +89,7 @@ impl Transport for TcpTransport {
             self.pos += used;
             if let Some(TcpEvent::Message(msg)) = event {
                 let dst = buf.get_mut(..msg.len()).ok_or(TransportError::MessageTooLarge)?;
-                dst.copy_from_slice(msg);
+                xrce_proto::bytes::copy(dst, msg);
                 return Ok(Some(msg.len()));
             }
         }

@@ -83,7 +83,7 @@ pub fn encode(msg: &[u8], out: &mut [u8]) -> Result<usize, CanError> {
         return Err(CanError::BufferTooSmall { needed });
     };
     *head = len;
-    body.copy_from_slice(msg);
+    crate::bytes::copy(body, msg);
     Ok(needed)
 }
 

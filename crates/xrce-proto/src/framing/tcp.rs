@@ -74,7 +74,7 @@ pub fn encode(msg: &[u8], out: &mut [u8]) -> Result<usize, TcpError> {
     };
     if let Some((head_out, body_out)) = framed.split_first_chunk_mut::<PREFIX_LEN>() {
         *head_out = head;
-        body_out.copy_from_slice(msg);
+        crate::bytes::copy(body_out, msg);
     }
     Ok(needed)
 }
@@ -218,7 +218,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> TcpDecoder<B> {
                 State::Body { len, pos } => {
                     let take = (len - pos).min(rest.len());
                     if let (Some(dst), Some(src)) = (self.buf.as_mut().get_mut(pos..pos + take), rest.get(..take)) {
-                        dst.copy_from_slice(src);
+                        crate::bytes::copy(dst, src);
                     }
                     used += take;
                     if pos + take == len {

@@ -272,17 +272,31 @@ impl<'a> ObjectVariant<'a> {
 
 impl<'a> Decode<'a> for ObjectVariant<'a> {
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Self::decode_kinds::<true>(r)
+    }
+}
+
+impl<'a> ObjectVariant<'a> {
+    /// Decodes only the variants an agent reports to a client about itself or the client (AGENT, CLIENT: the
+    /// configuration in an INFO answering GET_INFO); any other kind is [`Error::InvalidDiscriminator`]. A
+    /// client's build then carries none of the entity representations' decoders.
+    pub fn decode_agent_or_client(r: &mut Reader<'a>) -> Result<Self> {
+        Self::decode_kinds::<false>(r)
+    }
+
+    /// Every kind (`ENTITIES`), or AGENT and CLIENT only.
+    fn decode_kinds<const ENTITIES: bool>(r: &mut Reader<'a>) -> Result<Self> {
         let kind_byte = r.read_u8()?;
         let kind = ObjectKind::from_nibble(kind_byte);
         if kind_byte > 0x0F {
             return Err(Error::InvalidDiscriminator(kind_byte));
         }
         let variant = match kind {
-            ObjectKind::Participant => {
+            ObjectKind::Participant if ENTITIES => {
                 let representation = Representation::decode_allowed(r, REPRESENTATION_3)?;
                 Self::Entity(EntityVariant::participant(representation, r.read_i16()?))
             }
-            ObjectKind::Publisher | ObjectKind::Subscriber => {
+            ObjectKind::Publisher | ObjectKind::Subscriber if ENTITIES => {
                 let representation = Representation::decode_allowed(r, BIN_AND_XML)?;
                 Self::Entity(EntityVariant::child(kind, representation, r.read()?))
             }
@@ -290,18 +304,18 @@ impl<'a> Decode<'a> for ObjectVariant<'a> {
             | ObjectKind::DataWriter
             | ObjectKind::DataReader
             | ObjectKind::Requester
-            | ObjectKind::Replier => {
+            | ObjectKind::Replier
+                if ENTITIES =>
+            {
                 let representation = Representation::decode_allowed(r, REPRESENTATION_3)?;
                 Self::Entity(EntityVariant::child(kind, representation, r.read()?))
             }
-            ObjectKind::Type | ObjectKind::QosProfile | ObjectKind::Application => {
+            ObjectKind::Type | ObjectKind::QosProfile | ObjectKind::Application if ENTITIES => {
                 Self::Profile { kind, representation: Representation::decode_allowed(r, REF_AND_XML)? }
             }
             ObjectKind::Agent => Self::Agent(r.read()?),
             ObjectKind::Client => Self::Client(r.read()?),
-            ObjectKind::Invalid | ObjectKind::Unused9 | ObjectKind::Other => {
-                return Err(Error::InvalidDiscriminator(kind_byte))
-            }
+            _ => return Err(Error::InvalidDiscriminator(kind_byte)),
         };
         Ok(variant)
     }

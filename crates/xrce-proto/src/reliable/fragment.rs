@@ -108,7 +108,7 @@ impl FragmentSink for SliceSink<'_> {
     fn extend(&mut self, data: &[u8]) -> bool {
         match self.buf.get_mut(self.len..self.len + data.len()) {
             Some(dst) => {
-                dst.copy_from_slice(data);
+                crate::bytes::copy(dst, data);
                 self.len += data.len();
                 true
             }

@@ -81,7 +81,7 @@ impl InPlaceJoin {
         let chunk = at + fragment.chunk.start..at + fragment.chunk.end;
         let n = chunk.len();
         // In bounds: `chunk` lies in `message`, checked above, and `self.len <= chunk.start`.
-        buf.copy_within(chunk, self.len);
+        crate::bytes::copy_within(buf, chunk, self.len);
         self.len += n;
         Some(fragment.last)
     }

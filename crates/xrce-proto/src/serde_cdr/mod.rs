@@ -118,7 +118,7 @@ impl fmt::Write for Message {
         }
         let end = self.len.saturating_add(n);
         if let (Some(dst), Some(src)) = (self.buf.get_mut(self.len..end), s.as_bytes().get(..n)) {
-            dst.copy_from_slice(src);
+            crate::bytes::copy(dst, src);
             self.len = end;
         }
         if n == s.len() {
