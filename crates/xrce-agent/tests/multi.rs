@@ -375,6 +375,8 @@ fn a_tcp_listener_out_of_descriptors_leaves_udp_serving_and_recovers() {
         Some(32),
     );
     agent.wait_for(&["agent running"]).expect("the agent runs");
+    let warned = agent.wait_for(&["--max-connections 1000 leaves fewer than"]).expect("the cap is warned of");
+    assert!(warned.contains(&format!(":{tcp}")) && warned.contains("of the 32 file descriptors"), "{warned}");
     let flood = connections(tcp, 48);
     let fault = agent.wait_for(&["TCP accept failed"]).expect("the agent logs the failed accept");
     assert!(fault.contains(&format!(":{tcp}")), "the listener's port in {fault}");

@@ -33,6 +33,9 @@ pub const DEFAULT_MAX_CONNECTIONS: usize = crate::cli::DEFAULT_MAX_CONNECTIONS a
 /// is tried again this long after: the error is transient, and connections queued meanwhile would otherwise
 /// wait for a new one to arrive (readiness is edge-triggered).
 pub const ACCEPT_RETRY: Duration = Duration::from_millis(100);
+/// Descriptors the agent needs besides its TCP connections (standard streams, poll, other transports, DDS
+/// participants' sockets, a serial device reopened): a cap closer than this to the process' limit is warned of.
+const DESCRIPTORS_KEPT: u64 = 64;
 /// A connection whose outbox has not moved for this long while holding data is closed (its peer stopped
 /// reading).
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
@@ -300,6 +303,7 @@ impl TcpIo {
         max_connections: usize,
     ) -> io::Result<Self> {
         let local = listener.local_addr()?;
+        warn_if_over_descriptor_limit(local, max_connections);
         let mut listener = TcpListener::from_std(listener.try_clone()?);
         registry.register(&mut listener, tokens.token(LISTENER), Interest::READABLE)?;
         Ok(Self {
@@ -425,6 +429,20 @@ impl TcpIo {
         let _ = conn.stream.shutdown(Shutdown::Both);
         tracing::info!(conn = %conn.id, "TCP connection closed: {why}");
         Some(conn.id)
+    }
+}
+
+/// Warns when `max_connections` leaves fewer than [`DESCRIPTORS_KEPT`] of the process' file descriptors
+/// (`ulimit -n`) to the rest of the agent: a flood of connections would then reach the limit.
+fn warn_if_over_descriptor_limit(listener: SocketAddr, max_connections: usize) {
+    let Ok((limit, _)) = nix::sys::resource::getrlimit(nix::sys::resource::Resource::RLIMIT_NOFILE) else { return };
+    let max = u64::try_from(max_connections).unwrap_or(u64::MAX);
+    if max.saturating_add(DESCRIPTORS_KEPT) > limit {
+        tracing::warn!(
+            %listener,
+            "--max-connections {max_connections} leaves fewer than {DESCRIPTORS_KEPT} of the {limit} file \
+             descriptors allowed (ulimit -n) to the rest of the agent: lower it, or raise the limit"
+        );
     }
 }
 
