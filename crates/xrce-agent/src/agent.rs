@@ -395,8 +395,9 @@ impl AgentInstance {
                 load_refs(&config, &agent.profiles)?;
                 agent.core.with(|c| c.set_peer_address(|conn| Some(conn.peer)));
                 let addr = bind_addr(&config.transport, port);
-                let mut server =
-                    TcpServer::bind(addr, agent.core()).map_err(cannot_open(format!("TCP port {addr}")))?;
+                let mut server = TcpServer::bind(addr, agent.core())
+                    .map_err(cannot_open(format!("TCP port {addr}")))?
+                    .with_max_connections(config.max_connections);
                 let local = server.local_addr()?;
                 if let Some(d) = discovery_for(&config, local.port())? {
                     server = server.with_discovery(d);
@@ -618,7 +619,7 @@ fn open_transport(server: &mut MultiServer, spec: &TransportSpec) -> Result<Opti
             let addr = bind_addr(transport, *port);
             let listener = std::net::TcpListener::bind(addr).map_err(cannot_open(format!("TCP port {addr}")))?;
             let local = listener.local_addr()?;
-            server.add_tcp(listener)?;
+            server.add_tcp(listener, spec.max_connections)?;
             Ok(Some(local))
         }
         #[cfg(target_os = "linux")]

@@ -40,6 +40,8 @@ pub const DEFAULT_VERBOSITY: u8 = 4;
 pub const MAX_VERBOSITY: u8 = 6;
 /// UDP port of the discovery server when `-d` is given without a value.
 pub const DEFAULT_DISCOVERY_PORT: u16 = 7400;
+/// TCP connections served at once when `--max-connections` is absent (eProsima's agent's build-time default).
+pub const DEFAULT_MAX_CONNECTIONS: u16 = 100;
 /// Serial line speed when `-b` is absent.
 pub const DEFAULT_BAUDRATE: u32 = 115_200;
 /// CAN identifier when `-I` is absent (eProsima's `0x00000001`).
@@ -71,6 +73,9 @@ pub struct Config {
     /// RTS/CTS hardware flow control on the serial lines (`--flow-control`; ours: PX4 patches eProsima's
     /// agent for it).
     pub flow_control: bool,
+    /// Most TCP connections served at once (`--max-connections`, tcp4 and tcp6; ours): more are closed on
+    /// accept, so a flood of connections cannot take every file descriptor of the agent.
+    pub max_connections: usize,
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
     /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
@@ -277,6 +282,7 @@ Arguments per transport (place them after the transport):
       --psk-file <FILE>               require a CREATE_CLIENT token made with this pre-shared key (ours)
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
+      --max-connections <N>           tcp4, tcp6: most connections served at once (ours) [default: 100]
   * SERIAL (serial, multiserial, pseudoterminal)
       -b/--baudrate <BAUD>            line speed [default: 115200]
       -D/--dev <DEVICE>               serial: device path
@@ -330,9 +336,9 @@ enum TransportCommand {
     /// UDP over IPv6.
     Udp6(IpArgs),
     /// TCP over IPv4.
-    Tcp4(IpArgs),
+    Tcp4(TcpArgs),
     /// TCP over IPv6.
-    Tcp6(IpArgs),
+    Tcp6(TcpArgs),
     /// One serial device.
     Serial(SerialArgs),
     /// Several serial devices.
@@ -416,6 +422,25 @@ struct IpArgs {
     /// Local port.
     #[arg(short = 'p', long, value_name = "PORT")]
     port: u16,
+
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+#[derive(Debug, Args)]
+struct TcpArgs {
+    /// Local port.
+    #[arg(short = 'p', long, value_name = "PORT")]
+    port: u16,
+
+    /// Most connections served at once; more are closed on accept (ours).
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = DEFAULT_MAX_CONNECTIONS,
+        value_parser = clap::value_parser!(u16).range(1..)
+    )]
+    max_connections: u16,
 
     #[command(flatten)]
     common: CommonArgs,
@@ -541,11 +566,18 @@ where
 impl TransportCommand {
     fn into_config(self) -> Result<Config, clap::Error> {
         let mut flow_control = false;
+        let mut max_connections = DEFAULT_MAX_CONNECTIONS;
         let (transport, common) = match self {
             TransportCommand::Udp4(a) => (Transport::Udp4 { port: a.port }, a.common),
             TransportCommand::Udp6(a) => (Transport::Udp6 { port: a.port }, a.common),
-            TransportCommand::Tcp4(a) => (Transport::Tcp4 { port: a.port }, a.common),
-            TransportCommand::Tcp6(a) => (Transport::Tcp6 { port: a.port }, a.common),
+            TransportCommand::Tcp4(a) => {
+                max_connections = a.max_connections;
+                (Transport::Tcp4 { port: a.port }, a.common)
+            }
+            TransportCommand::Tcp6(a) => {
+                max_connections = a.max_connections;
+                (Transport::Tcp6 { port: a.port }, a.common)
+            }
             TransportCommand::Serial(a) => {
                 let device = match (a.dev, a.file) {
                     (Some(dev), _) => dev,
@@ -585,6 +617,7 @@ impl TransportCommand {
             discovery: common.discovery,
             p2p: common.p2p,
             flow_control,
+            max_connections: usize::from(max_connections),
             ros_graph: common.ros_graph,
             dds_engine: common.dds_engine,
             eager_participant: common.eager_participant == OnOff::On,
@@ -730,6 +763,7 @@ mod tests {
                 discovery: None,
                 p2p: None,
                 flow_control: false,
+                max_connections: 100,
                 ros_graph: RosGraph::On,
                 dds_engine: None,
                 eager_participant: true,
@@ -750,6 +784,14 @@ mod tests {
         assert_eq!(ok("tcp4 --port 2").transport, Transport::Tcp4 { port: 2 });
         assert_eq!(ok("tcp6 -p 65535").transport, Transport::Tcp6 { port: 65535 });
         assert_eq!(ok("tcp6 --port=7").transport, Transport::Tcp6 { port: 7 });
+    }
+
+    #[test]
+    fn tcp_connections_are_capped() {
+        assert_eq!(ok("tcp4 -p 1").max_connections, 100);
+        assert_eq!(ok("tcp6 -p 1 --max-connections 5000").max_connections, 5000);
+        assert_eq!(rejected("tcp4 -p 1 --max-connections 0"), ErrorKind::ValueValidation);
+        assert_eq!(rejected("udp4 -p 1 --max-connections 5"), ErrorKind::UnknownArgument);
     }
 
     #[test]

@@ -39,6 +39,8 @@ pub struct TransportSpec {
     pub transport: Transport,
     /// RTS/CTS flow control (`flow-control`, serial and multiserial).
     pub flow_control: bool,
+    /// Most connections served at once (`max-connections`, tcp4 and tcp6).
+    pub max_connections: usize,
     /// The table's line in the file.
     pub line: usize,
 }
@@ -228,7 +230,12 @@ impl Parser<'_> {
         if let Some((key, missing)) = self.missing_device(&config.transport, table) {
             return Err(self.error(key.span().start, Some(key.get_ref()), format!("{missing} does not exist")));
         }
-        let spec = TransportSpec { transport: config.transport.clone(), flow_control: config.flow_control, line };
+        let spec = TransportSpec {
+            transport: config.transport.clone(),
+            flow_control: config.flow_control,
+            max_connections: config.max_connections,
+            line,
+        };
         Ok((config, spec))
     }
 

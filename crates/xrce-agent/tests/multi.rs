@@ -2,7 +2,9 @@
 //! TCP and a pseudoterminal, `-m ced`; a client on each transport publishes on one topic and reads it, and
 //! every client gets every sample of the three, whichever transport it came from; the same with `-m dds`, where
 //! a DDS peer sees one DDS participant per XRCE participant name, whatever the transports of its clients. And
-//! a fault stays local: a serial device that goes away leaves the UDP transport serving.
+//! a fault stays local: a serial device that goes away, or a TCP listener out of file descriptors, leaves the
+//! UDP transport serving (and the listener accepts again once descriptors are free); `max-connections` caps
+//! the TCP connections served at once.
 
 mod netns;
 
@@ -40,9 +42,24 @@ struct RunningAgent {
 impl RunningAgent {
     /// Starts `xrce-agent --config FILE` with `toml` as the file.
     fn start(dir: &Path, toml: &str) -> Self {
+        Self::start_with_descriptors(dir, toml, None)
+    }
+
+    /// As [`RunningAgent::start`], the agent allowed at most `descriptors` open files if given (the shell's
+    /// `ulimit -n`, then `exec`: the agent is the child, as without a limit).
+    fn start_with_descriptors(dir: &Path, toml: &str, descriptors: Option<u32>) -> Self {
         let file = dir.join("agent.toml");
         std::fs::write(&file, toml).expect("config file");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_xrce-agent"))
+        let agent = env!("CARGO_BIN_EXE_xrce-agent");
+        let mut command = match descriptors {
+            Some(n) => {
+                let mut c = Command::new("sh");
+                c.args(["-c", "ulimit -n \"$0\" && exec \"$@\"", &n.to_string(), agent]);
+                c
+            }
+            None => Command::new(agent),
+        };
+        let mut child = command
             .arg("--config")
             .arg(&file)
             .stdout(Stdio::piped())
@@ -313,6 +330,89 @@ fn a_serial_device_gone_leaves_udp_serving() {
     assert!(s.run_session_until_all_status(3000, &[req], &mut status).expect("run"), "{status:?}");
     assert!(s.delete_session().expect("run"));
     assert!(agent.child.try_wait().expect("wait").is_none(), "the agent still runs");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A UDP client creates a session and gets back the samples it publishes (CED).
+fn udp_round_trip(port: u16, key: u32, tag: u8) {
+    let udp = UdpTransport::connect(([127, 0, 0, 1], port).into()).expect("udp");
+    let mut got = client(udp, key, tag, &format!("round_trip_{tag}"), &Ready::new(1), SAMPLES);
+    got.sort();
+    assert_eq!(got, (0..SAMPLES).map(|n| sample(tag, n)).collect::<Vec<_>>(), "every sample back, once");
+}
+
+fn tcp_connect(port: u16) -> TcpTransport {
+    TcpTransport::connect(([127, 0, 0, 1], port).into()).expect("TCP connect")
+}
+
+/// A TCP client creates a session (and deletes it).
+fn tcp_session(tcp: TcpTransport, key: u32) -> Result<(), String> {
+    let mut s = Session::new(tcp, key);
+    s.create_session().map_err(|e| format!("create_session: {e:?}"))?;
+    s.delete_session().map_err(|e| format!("delete_session: {e:?}"))?;
+    Ok(())
+}
+
+/// Connections to `port` (only connected: the agent's listener queues them until it accepts them).
+fn connections(port: u16, n: usize) -> Vec<std::net::TcpStream> {
+    (0..n).map(|_| std::net::TcpStream::connect(("127.0.0.1", port)).expect("connect")).collect()
+}
+
+/// The TCP listener cannot accept (the agent has no file descriptor left, EMFILE): the agent logs it with
+/// the listener's port, its UDP transport goes on serving, and once the connections close TCP serves again.
+#[test]
+fn a_tcp_listener_out_of_descriptors_leaves_udp_serving_and_recovers() {
+    let dir = temp_dir("emfile");
+    let (udp, tcp) = (free_port(true), free_port(false));
+    // 32 descriptors: the agent's own (standard streams, poll, waker, sockets) and a score of connections;
+    // the cap on connections is far above, so descriptors run out first.
+    let agent = RunningAgent::start_with_descriptors(
+        &dir,
+        &format!(
+            "middleware = \"ced\"\nverbose = 5\n[[transport]]\nkind = \"udp4\"\nport = {udp}\n\
+             [[transport]]\nkind = \"tcp4\"\nport = {tcp}\nmax-connections = 1000\n"
+        ),
+        Some(32),
+    );
+    agent.wait_for(&["agent running"]).expect("the agent runs");
+    let warned = agent.wait_for(&["--max-connections 1000 leaves fewer than"]).expect("the cap is warned of");
+    assert!(warned.contains(&format!(":{tcp}")) && warned.contains("of the 32 file descriptors"), "{warned}");
+    let flood = connections(tcp, 48);
+    let fault = agent.wait_for(&["TCP accept failed"]).expect("the agent logs the failed accept");
+    assert!(fault.contains(&format!(":{tcp}")), "the listener's port in {fault}");
+    udp_round_trip(udp, 0xC1, 1);
+    // Queued behind the flood: no connection arrives after it, so only the listener's own retries take it.
+    let queued = tcp_connect(tcp);
+    drop(flood);
+    tcp_session(queued, 0xC2).expect("TCP serves again, the connection queued meanwhile first");
+    agent.wait_for(&["TCP listener accepting again"]).expect("the recovery is logged");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// `max-connections` caps the connections served at once: one more is closed at once, and once one of them
+/// closes a new one is served.
+#[test]
+fn tcp_connections_beyond_the_cap_are_closed() {
+    let dir = temp_dir("cap");
+    let tcp = free_port(false);
+    let agent = RunningAgent::start(
+        &dir,
+        &format!("middleware = \"ced\"\n[[transport]]\nkind = \"tcp4\"\nport = {tcp}\nmax-connections = 2\n"),
+    );
+    agent.wait_for(&["agent running"]).expect("the agent runs");
+    let mut served = connections(tcp, 2);
+    agent.wait_for(&["TCP connection accepted", "#2"]).expect("two connections served");
+    let mut refused = std::net::TcpStream::connect(("127.0.0.1", tcp)).expect("connect");
+    refused.set_read_timeout(Some(Duration::from_secs(10))).expect("timeout");
+    let mut byte = [0u8; 1];
+    let read = std::io::Read::read(&mut refused, &mut byte);
+    assert!(matches!(read, Ok(0)) || read.is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionReset), "closed");
+    let log = agent.wait_for(&["too many TCP connections"]).expect("the refusal is logged");
+    assert!(log.contains("max=2"), "{log}");
+    assert!(tcp_session(tcp_connect(tcp), 0xD1).is_err(), "no session beyond the cap");
+    served.pop();
+    agent.wait_for(&["TCP connection closed", "closed by the peer"]).expect("the agent sees it closed");
+    tcp_session(tcp_connect(tcp), 0xD2).expect("a freed slot serves a new connection");
     let _ = std::fs::remove_dir_all(dir);
 }
 

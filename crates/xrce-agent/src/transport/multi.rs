@@ -274,7 +274,7 @@ impl Io<AnyEndpoint> for MultiIo<'_> {
 #[derive(Debug)]
 enum Source {
     Udp(UdpSocket),
-    Tcp(TcpListener),
+    Tcp(TcpListener, usize),
     #[cfg(target_os = "linux")]
     Serial(Vec<Line>),
     #[cfg(target_os = "linux")]
@@ -301,7 +301,7 @@ impl Source {
     fn name(&self) -> String {
         match self {
             Self::Udp(s) => format!("UDP {}", s.local_addr().map_or_else(|e| e.to_string(), |a| a.to_string())),
-            Self::Tcp(l) => format!("TCP {}", l.local_addr().map_or_else(|e| e.to_string(), |a| a.to_string())),
+            Self::Tcp(l, _) => format!("TCP {}", l.local_addr().map_or_else(|e| e.to_string(), |a| a.to_string())),
             #[cfg(target_os = "linux")]
             Self::Serial(lines) => {
                 format!("serial {}", lines.iter().map(Line::name).collect::<Vec<_>>().join(" "))
@@ -343,10 +343,11 @@ impl MultiServer {
         self.add(Source::Udp(socket))
     }
 
-    /// Adds a listening TCP socket; returns the transport's index.
-    pub fn add_tcp(&mut self, listener: TcpListener) -> io::Result<u8> {
+    /// Adds a listening TCP socket serving at most `max_connections` at once (more are closed on accept;
+    /// [`super::tcp::DEFAULT_MAX_CONNECTIONS`] is the command line's default); returns the transport's index.
+    pub fn add_tcp(&mut self, listener: TcpListener, max_connections: usize) -> io::Result<u8> {
         listener.set_nonblocking(true)?;
-        self.add(Source::Tcp(listener))
+        self.add(Source::Tcp(listener, max_connections))
     }
 
     /// Adds serial lines (devices or pseudoterminals), served as one `multiserial` transport.
@@ -449,7 +450,9 @@ fn register<'a>(
         let name = source.name();
         shells.push(match source {
             Source::Udp(socket) => Shell::Udp(Served::new(UdpIo::register(socket, registry, tokens)?, name)),
-            Source::Tcp(listener) => Shell::Tcp(Served::new(TcpIo::register(listener, registry, tokens)?, name)),
+            Source::Tcp(listener, max) => {
+                Shell::Tcp(Served::new(TcpIo::register(listener, registry, tokens, *max)?, name))
+            }
             #[cfg(target_os = "linux")]
             Source::Serial(lines) => {
                 let io = SerialIo::register(std::mem::take(lines), registry, tokens)?;

@@ -5,7 +5,8 @@
 //! middleware through a [`mio::Waker`], and writes each connection from its own outbox with
 //! vectored writes as far as the socket takes them: a client that stops reading only fills its own outbox,
 //! and is closed once that holds [`MAX_OUTBOX_BYTES`] or has not moved for [`WRITE_TIMEOUT`]. Nothing else
-//! waits for it.
+//! waits for it. At most `--max-connections` ([`DEFAULT_MAX_CONNECTIONS`]) are served at once; an accept that
+//! fails (no file descriptor left) is tried again after [`ACCEPT_RETRY`], never given up.
 
 use std::collections::{HashMap, VecDeque};
 use std::io::{self, IoSlice, Read, Write};
@@ -24,8 +25,17 @@ use super::drive::{EventLoop, Inbox, Io, Spent, Tokens};
 use super::SharedCore;
 use crate::core::Transmit;
 
-/// Most simultaneous connections; more are closed on accept.
-pub const MAX_CONNECTIONS: usize = 1024;
+/// Simultaneous connections a listener serves unless told otherwise (`--max-connections`); more are closed on
+/// accept. As eProsima's agent (its `UAGENT_CONFIG_TCP_MAX_CONNECTIONS`); each takes a file descriptor, and a
+/// cap well under the usual limit of 1024 leaves descriptors to the other transports and the DDS participants.
+pub const DEFAULT_MAX_CONNECTIONS: usize = crate::cli::DEFAULT_MAX_CONNECTIONS as usize;
+/// After an accept fails (no descriptor left: EMFILE, ENFILE; a connection reset while queued), the listener
+/// is tried again this long after: the error is transient, and connections queued meanwhile would otherwise
+/// wait for a new one to arrive (readiness is edge-triggered).
+pub const ACCEPT_RETRY: Duration = Duration::from_millis(100);
+/// Descriptors the agent needs besides its TCP connections (standard streams, poll, other transports, DDS
+/// participants' sockets, a serial device reopened): a cap closer than this to the process' limit is warned of.
+const DESCRIPTORS_KEPT: u64 = 64;
 /// A connection whose outbox has not moved for this long while holding data is closed (its peer stopped
 /// reading).
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
@@ -75,6 +85,7 @@ fn number_of(tokens: Tokens, token: Token) -> Option<u64> {
 pub struct TcpServer {
     listener: std::net::TcpListener,
     looped: EventLoop<ConnId>,
+    max_connections: usize,
 }
 
 /// One connection: its socket, the reassembly of what it sends and the framed messages waiting to go out.
@@ -160,7 +171,15 @@ impl TcpServer {
     pub fn bind(addr: SocketAddr, core: SharedCore<ConnId>) -> io::Result<Self> {
         let listener = std::net::TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
-        Ok(Self { listener, looped: EventLoop::new(core)? })
+        Ok(Self { listener, looped: EventLoop::new(core)?, max_connections: DEFAULT_MAX_CONNECTIONS })
+    }
+
+    /// Serves at most `max` connections at once (default [`DEFAULT_MAX_CONNECTIONS`]); more are closed on
+    /// accept.
+    #[must_use]
+    pub fn with_max_connections(mut self, max: usize) -> Self {
+        self.max_connections = max;
+        self
     }
 
     /// Answers discovery requests (`-d`) from this server's loop.
@@ -178,8 +197,9 @@ impl TcpServer {
     /// Serves until `stop` is set (checked at least every [`super::MAX_BLOCK`]).
     pub fn run(&self, stop: &Arc<AtomicBool>) -> io::Result<()> {
         let name = format!("the TCP server on {}", self.listener.local_addr()?);
-        let mut io =
-            self.looped.run(&name, stop, |registry| TcpIo::register(&self.listener, registry, Tokens::ALONE))?;
+        let mut io = self.looped.run(&name, stop, |registry| {
+            TcpIo::register(&self.listener, registry, Tokens::ALONE, self.max_connections)
+        })?;
         io.close_all();
         Ok(())
     }
@@ -188,6 +208,13 @@ impl TcpServer {
 /// The listener and the connections, as the event loop sees them.
 pub(crate) struct TcpIo {
     listener: TcpListener,
+    /// The listener's address, for logs.
+    local: SocketAddr,
+    max_connections: usize,
+    /// When the last accept failed: the listener is tried again [`ACCEPT_RETRY`] after.
+    accept_failed_at: Option<Instant>,
+    /// The last connection accepted was over the cap and closed.
+    refusing: bool,
     registry: Registry,
     /// By connection number.
     conns: HashMap<u64, Conn>,
@@ -213,6 +240,9 @@ impl Io<ConnId> for TcpIo {
     }
 
     fn receive(&mut self, inbox: &mut Inbox<'_, ConnId>) -> io::Result<()> {
+        if self.accept_failed_at.is_some_and(|at| inbox.now().saturating_duration_since(at) >= ACCEPT_RETRY) {
+            self.accept();
+        }
         for number in std::mem::take(&mut self.readable) {
             self.read(number, inbox);
         }
@@ -266,11 +296,22 @@ impl Io<ConnId> for TcpIo {
 
 impl TcpIo {
     /// Registers (a clone of) `listener` with the loop's `registry` in the shell's token range.
-    pub(crate) fn register(listener: &std::net::TcpListener, registry: &Registry, tokens: Tokens) -> io::Result<Self> {
+    pub(crate) fn register(
+        listener: &std::net::TcpListener,
+        registry: &Registry,
+        tokens: Tokens,
+        max_connections: usize,
+    ) -> io::Result<Self> {
+        let local = listener.local_addr()?;
+        warn_if_over_descriptor_limit(local, max_connections);
         let mut listener = TcpListener::from_std(listener.try_clone()?);
         registry.register(&mut listener, tokens.token(LISTENER), Interest::READABLE)?;
         Ok(Self {
             listener,
+            local,
+            max_connections,
+            accept_failed_at: None,
+            refusing: false,
             registry: registry.try_clone()?,
             conns: HashMap::new(),
             next_id: 1,
@@ -291,17 +332,35 @@ impl TcpIo {
         loop {
             let (mut stream, peer) = match self.listener.accept() {
                 Ok(a) => a,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    self.accepting_again();
+                    return;
+                }
+                // A connection reset while queued is gone; the next may be fine.
+                Err(e) if matches!(e.kind(), io::ErrorKind::Interrupted | io::ErrorKind::ConnectionAborted) => continue,
                 Err(e) => {
-                    tracing::warn!("TCP accept failed: {e}");
+                    // Logged once per outage; the retries that fail again are debug.
+                    if self.accept_failed_at.is_none() {
+                        tracing::warn!(listener = %self.local, "TCP accept failed, trying again every {ACCEPT_RETRY:?}: {e}");
+                    } else {
+                        tracing::debug!(listener = %self.local, "TCP accept failed again: {e}");
+                    }
+                    self.accept_failed_at = Some(Instant::now());
                     return;
                 }
             };
-            if self.conns.len() >= MAX_CONNECTIONS {
-                tracing::warn!(%peer, "too many TCP connections, refusing");
+            self.accepting_again();
+            if self.conns.len() >= self.max_connections {
+                // Logged once per flood; the next refusals are debug.
+                if self.refusing {
+                    tracing::debug!(listener = %self.local, %peer, "too many TCP connections, refusing");
+                } else {
+                    tracing::warn!(listener = %self.local, %peer, max = self.max_connections, "too many TCP connections, refusing");
+                    self.refusing = true;
+                }
                 continue;
             }
+            self.refusing = false;
             let id = ConnId { number: self.next_id, peer };
             self.next_id += 1;
             let _ = stream.set_nodelay(true);
@@ -321,6 +380,13 @@ impl TcpIo {
                 writable_interest: false,
             };
             self.conns.insert(id.number, conn);
+        }
+    }
+
+    /// The listener took a connection or had none queued: no retry pending.
+    fn accepting_again(&mut self) {
+        if self.accept_failed_at.take().is_some() {
+            tracing::info!(listener = %self.local, "TCP listener accepting again");
         }
     }
 
@@ -363,6 +429,20 @@ impl TcpIo {
         let _ = conn.stream.shutdown(Shutdown::Both);
         tracing::info!(conn = %conn.id, "TCP connection closed: {why}");
         Some(conn.id)
+    }
+}
+
+/// Warns when `max_connections` leaves fewer than [`DESCRIPTORS_KEPT`] of the process' file descriptors
+/// (`ulimit -n`) to the rest of the agent: a flood of connections would then reach the limit.
+fn warn_if_over_descriptor_limit(listener: SocketAddr, max_connections: usize) {
+    let Ok((limit, _)) = nix::sys::resource::getrlimit(nix::sys::resource::Resource::RLIMIT_NOFILE) else { return };
+    let max = u64::try_from(max_connections).unwrap_or(u64::MAX);
+    if max.saturating_add(DESCRIPTORS_KEPT) > limit {
+        tracing::warn!(
+            %listener,
+            "--max-connections {max_connections} leaves fewer than {DESCRIPTORS_KEPT} of the {limit} file \
+             descriptors allowed (ulimit -n) to the rest of the agent: lower it, or raise the limit"
+        );
     }
 }
 
