@@ -21,7 +21,8 @@ use xrce_proto::submessage::CreationMode;
 use xrce_proto::{ClientKey, EntityVariant, ObjectId, ObjectKind, StatusCode};
 
 use crate::cli::{self, Config, Transport};
-use crate::core::{AgentCore, CoreConfig};
+use crate::core::{AgentCore, AgentSnapshot, CoreConfig, SnapshotBoard};
+use crate::metrics::MetricsServer;
 use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
 use crate::middleware::profiles::StoreProfiles;
 use crate::middleware::ros_graph::RosGraphMode;
@@ -95,6 +96,9 @@ fn to_cli_kind(kind: cli::MiddlewareKind) -> MiddlewareKind {
         cli::MiddlewareKind::Rtps => MiddlewareKind::Rtps,
     }
 }
+
+/// How often the server's loop publishes a snapshot for `--metrics` and ROS 2 diagnostics.
+pub const SNAPSHOT_PERIOD: Duration = Duration::from_secs(1);
 
 /// An entity's text description, owned so that it can travel to the server's loop.
 enum Repr {
@@ -296,6 +300,12 @@ impl<E: Copy + Eq + Hash + Debug + Send + 'static> Agent<E> {
         self.core.with(|c| c.reset());
     }
 
+    /// The agent's state now ([`AgentSnapshot`]): every client with its streams and counters, the agent's
+    /// totals, the middleware's. Built in the running server's next turn (or at once while none runs).
+    pub fn snapshot(&self) -> AgentSnapshot {
+        self.core.with(|c| c.snapshot(Instant::now()))
+    }
+
     /// Sets the log level, eProsima's 0 (off) .. 6 (trace with hex dumps).
     pub fn set_verbose_level(&self, level: u8) {
         crate::logging::set_verbose_level(level);
@@ -327,6 +337,37 @@ pub enum AgentHandle {
     Can(Agent<crate::transport::canfd::CanEndpoint>),
 }
 
+/// Runs `$body` with `$agent` bound to the [`Agent`] of any transport family.
+macro_rules! each_agent {
+    ($handle:expr, $agent:ident => $body:expr) => {
+        match $handle {
+            AgentHandle::Udp($agent) => $body,
+            AgentHandle::Tcp($agent) => $body,
+            #[cfg(target_os = "linux")]
+            AgentHandle::Serial($agent) => $body,
+            #[cfg(target_os = "linux")]
+            AgentHandle::Can($agent) => $body,
+        }
+    };
+}
+
+impl AgentHandle {
+    /// The agent's state now ([`Agent::snapshot`]).
+    pub fn snapshot(&self) -> AgentSnapshot {
+        each_agent!(self, agent => agent.snapshot())
+    }
+
+    /// Publishes snapshots to `board` every `period` from the server's loop ([`AgentCore::publish_snapshots`]).
+    fn publish_snapshots(&self, board: Arc<SnapshotBoard>, period: Duration) {
+        each_agent!(self, agent => agent.core.with(move |c| c.publish_snapshots(board, period, Instant::now())))
+    }
+
+    /// Names the transport in snapshots.
+    fn set_transport_name(&self, name: &'static str) {
+        each_agent!(self, agent => agent.core.with(move |c| c.set_transport_name(name)))
+    }
+}
+
 /// A running agent built from command-line arguments (eProsima's `AgentInstance`).
 #[derive(Debug)]
 pub struct AgentInstance {
@@ -335,6 +376,7 @@ pub struct AgentInstance {
     stop: Arc<AtomicBool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
     local_addr: Option<SocketAddr>,
+    metrics: Option<MetricsServer>,
 }
 
 impl AgentInstance {
@@ -356,6 +398,12 @@ impl AgentInstance {
         if let Some(port) = config.p2p {
             return Err(AgentError::P2p(port));
         }
+        // Bound before the transport's server starts, so that a port taken stops nothing that runs.
+        let board = Arc::new(SnapshotBoard::default());
+        let metrics = config
+            .metrics
+            .map(|addr| MetricsServer::start(addr, board.clone()).map_err(cannot_open(format!("metrics port {addr}"))))
+            .transpose()?;
         let (agent, server, local_addr) = match config.transport {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
                 let agent = Agent::<SocketAddr>::with_dds(
@@ -432,7 +480,11 @@ impl AgentInstance {
         if config.discovery.is_some() && local_addr.is_none() {
             tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
         }
-        Ok(Self { config, agent, stop, server: Some(server), local_addr })
+        agent.set_transport_name(config.transport.name());
+        if metrics.is_some() {
+            agent.publish_snapshots(board, SNAPSHOT_PERIOD);
+        }
+        Ok(Self { config, agent, stop, server: Some(server), local_addr, metrics })
     }
 
     /// The command line it was built from.
@@ -448,6 +500,11 @@ impl AgentInstance {
     /// The address the server listens on.
     pub fn local_addr(&self) -> Option<SocketAddr> {
         self.local_addr
+    }
+
+    /// The address of the `--metrics` server, if it runs.
+    pub fn metrics_addr(&self) -> Option<SocketAddr> {
+        self.metrics.as_ref().map(MetricsServer::local_addr)
     }
 
     /// Setting this flag stops the agent (e.g. from a signal handler).

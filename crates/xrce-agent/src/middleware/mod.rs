@@ -327,6 +327,29 @@ pub trait Middleware {
     /// effort / its client stopped acknowledging (`false`): what a reliable reader has not taken should be
     /// kept, and counts against the credit of its topic's writers ([`Self::write_credit`]).
     fn set_reader_reliable(&mut self, _reader: EntityRef, _reliable: bool) {}
+
+    /// Its state for [`AgentCore::snapshot`](crate::core::AgentCore::snapshot); read once per snapshot, not
+    /// per sample. Default: nothing known (zeros).
+    fn stats(&self) -> MiddlewareStats {
+        MiddlewareStats::default()
+    }
+
+    /// Sees each snapshot the core publishes ([`AgentCore::publish_snapshots`](crate::core::AgentCore::publish_snapshots)),
+    /// on the loop's thread: the DDS middleware writes ROS 2 `/diagnostics` from it. Default: nothing.
+    fn on_snapshot(&mut self, _snapshot: &crate::core::AgentSnapshot, _now: Instant) {}
+}
+
+/// A middleware's state in a snapshot: what holds samples back, and what it created in DDS.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MiddlewareStats {
+    /// Writers whose [`Middleware::write_credit`] is 0 now (their clients' reliable input is held).
+    pub writers_without_credit: u64,
+    /// Samples held at a new DDS writer's first-contact gate (until its readers are matched).
+    pub samples_at_gate: u64,
+    /// DDS participants (or CED's per-client participants).
+    pub participants: u64,
+    /// Topics.
+    pub topics: u64,
 }
 
 impl<M: Middleware + ?Sized> Middleware for Box<M> {
@@ -389,6 +412,12 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     }
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
         (**self).set_reader_reliable(reader, reliable);
+    }
+    fn stats(&self) -> MiddlewareStats {
+        (**self).stats()
+    }
+    fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, now: Instant) {
+        (**self).on_snapshot(snapshot, now);
     }
 }
 

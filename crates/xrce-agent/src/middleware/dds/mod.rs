@@ -114,6 +114,7 @@ use super::{
 use crate::profile::{self};
 
 mod gate;
+mod observe;
 mod spec;
 
 use gate::{GateTimer, HeldSamples};
@@ -1278,6 +1279,10 @@ impl Middleware for Dds {
         } else {
             self.pinned.remove(&reader);
         }
+    }
+
+    fn stats(&self) -> super::MiddlewareStats {
+        self.observed_stats()
     }
 }
 
