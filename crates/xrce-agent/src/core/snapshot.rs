@@ -249,11 +249,11 @@ where
     E: Copy + Eq + Hash + Debug,
     M: Middleware,
 {
-    /// Publishes a snapshot to `board` every `period` (at least 10 ms), the first at the next
-    /// [`Self::handle_timeout`] from `now` on; the middleware sees each ([`Middleware::on_snapshot`]: ROS 2
-    /// diagnostics).
+    /// Publishes a snapshot to `board` now, then every `period` (at least 10 ms) from
+    /// [`Self::handle_timeout`]; the middleware sees each ([`Middleware::on_snapshot`]: ROS 2 diagnostics).
     pub fn publish_snapshots(&mut self, board: Arc<SnapshotBoard>, period: Duration, now: Instant) {
         self.publisher = Some(Publisher { board, period: period.max(Duration::from_millis(10)), next: now });
+        self.publish_due(now);
     }
 
     /// Publishes a snapshot when one is due.

@@ -25,6 +25,27 @@ pub const MAX_REQUEST_BYTES: usize = 8 * 1024;
 /// Longest a connection stays open, request and answer together.
 pub const CONNECTION_TIMEOUT: Duration = Duration::from_secs(10);
 
+/// The server's bounds (the constants above by default; tests shorten them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Connections open at once; a new one past it closes the oldest.
+    pub max_connections: usize,
+    /// Longest request read; longer gets 431.
+    pub max_request_bytes: usize,
+    /// Longest a connection stays open.
+    pub connection_timeout: Duration,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            max_connections: MAX_CONNECTIONS,
+            max_request_bytes: MAX_REQUEST_BYTES,
+            connection_timeout: CONNECTION_TIMEOUT,
+        }
+    }
+}
+
 const LISTENER: Token = Token(0);
 const WAKER: Token = Token(1);
 /// Connection `i` has token `FIRST_CONNECTION + i`.
@@ -60,17 +81,23 @@ pub struct Server {
     board: Arc<SnapshotBoard>,
     connections: Vec<Option<Connection>>,
     rendered: Option<(Arc<AgentSnapshot>, Arc<[u8]>)>,
+    limits: Limits,
 }
 
 impl Server {
-    /// Binds `addr`.
+    /// Binds `addr`, with the default [`Limits`].
     pub fn bind(addr: SocketAddr, board: Arc<SnapshotBoard>) -> io::Result<Self> {
+        Self::bind_with(addr, board, Limits::default())
+    }
+
+    /// Binds `addr` with `limits`.
+    pub fn bind_with(addr: SocketAddr, board: Arc<SnapshotBoard>, limits: Limits) -> io::Result<Self> {
         let poll = Poll::new()?;
         let mut listener = TcpListener::bind(addr)?;
         poll.registry().register(&mut listener, LISTENER, Interest::READABLE)?;
         let waker = Arc::new(mio::Waker::new(poll.registry(), WAKER)?);
-        let connections = (0..MAX_CONNECTIONS).map(|_| None).collect();
-        Ok(Self { poll, listener, waker, board, connections, rendered: None })
+        let connections = (0..limits.max_connections.max(1)).map(|_| None).collect();
+        Ok(Self { poll, listener, waker, board, connections, rendered: None, limits })
     }
 
     /// The address it listens on.
@@ -108,7 +135,7 @@ impl Server {
     }
 
     fn next_deadline(&self) -> Option<Instant> {
-        self.connections.iter().flatten().map(|c| c.opened + CONNECTION_TIMEOUT).min()
+        self.connections.iter().flatten().map(|c| c.opened + self.limits.connection_timeout).min()
     }
 
     fn accept_all(&mut self) {
@@ -161,7 +188,7 @@ impl Server {
                 .connections
                 .get(slot)
                 .and_then(Option::as_ref)
-                .is_some_and(|c| now.saturating_duration_since(c.opened) >= CONNECTION_TIMEOUT);
+                .is_some_and(|c| now.saturating_duration_since(c.opened) >= self.limits.connection_timeout);
             if expired {
                 self.close(slot);
             }
@@ -172,7 +199,7 @@ impl Server {
     fn serve(&mut self, slot: usize) {
         let Some(Some(conn)) = self.connections.get_mut(slot) else { return };
         let keep = if conn.answer.is_none() {
-            match read_request(conn) {
+            match read_request(conn, self.limits.max_request_bytes) {
                 Ok(Some(status)) => {
                     let answer = self.answer(status);
                     self.start_answer(slot, answer)
@@ -261,13 +288,13 @@ enum Route {
 
 /// Reads what arrived; `Some(route)` once the request is complete (or refused), `None` while it is not.
 /// An error (or end of stream) closes the connection.
-fn read_request(conn: &mut Connection) -> io::Result<Option<Route>> {
+fn read_request(conn: &mut Connection, max_request_bytes: usize) -> io::Result<Option<Route>> {
     let mut chunk = [0u8; 2048];
     loop {
         match conn.stream.read(&mut chunk) {
             Ok(0) => return Err(io::ErrorKind::UnexpectedEof.into()),
             Ok(n) => {
-                let room = MAX_REQUEST_BYTES.saturating_sub(conn.request.len());
+                let room = max_request_bytes.saturating_sub(conn.request.len());
                 conn.request.extend_from_slice(chunk.get(..n.min(room)).unwrap_or(&[]));
                 if let Some(route) = route(&conn.request) {
                     return Ok(Some(route));

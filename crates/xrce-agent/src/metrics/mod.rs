@@ -28,7 +28,12 @@ pub struct MetricsServer {
 impl MetricsServer {
     /// Binds `addr` (an error when it is taken) and serves the snapshots published on `board`.
     pub fn start(addr: SocketAddr, board: Arc<SnapshotBoard>) -> io::Result<Self> {
-        let server = http::Server::bind(addr, board)?;
+        Self::start_with(addr, board, http::Limits::default())
+    }
+
+    /// As [`Self::start`], with other bounds.
+    pub fn start_with(addr: SocketAddr, board: Arc<SnapshotBoard>, limits: http::Limits) -> io::Result<Self> {
+        let server = http::Server::bind_with(addr, board, limits)?;
         let local = server.local_addr()?;
         let waker = server.waker();
         let stop = Arc::new(AtomicBool::new(false));
