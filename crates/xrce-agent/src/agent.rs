@@ -481,7 +481,9 @@ impl AgentInstance {
             tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
         }
         agent.set_transport_name(config.transport.name());
-        if metrics.is_some() {
+        // ROS 2 diagnostics are written by the DDS middleware from the snapshots the loop publishes.
+        let diagnostics = config.ros_diagnostics && kind != MiddlewareKind::Ced;
+        if metrics.is_some() || diagnostics {
             agent.publish_snapshots(board, SNAPSHOT_PERIOD);
         }
         Ok(Self { config, agent, stop, server: Some(server), local_addr, metrics })
@@ -563,6 +565,7 @@ fn dds_options(config: &Config) -> DdsOptions {
         eager_participant: config.eager_participant,
         share_participants: !config.participant_names,
         shared_memory: config.dds_shm,
+        ros_diagnostics: config.ros_diagnostics,
     }
 }
 

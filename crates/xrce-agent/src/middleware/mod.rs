@@ -14,6 +14,7 @@ pub mod callbacks;
 pub mod ced;
 pub mod dds;
 pub mod describe;
+pub mod diagnostics;
 pub mod profiles;
 pub mod ros_graph;
 
@@ -491,7 +492,8 @@ impl MiddlewareKind {
                     dds::Dds::with_config(profiles, config)
                         .with_ros_graph(ros_graph)
                         .with_eager_participant(options.eager_participant)
-                        .with_shared_participants(options.share_participants),
+                        .with_shared_participants(options.share_participants)
+                        .with_ros_diagnostics(options.ros_diagnostics),
                 ))
             }
         }
@@ -526,6 +528,8 @@ pub struct DdsOptions {
     /// Shared memory beside UDPv4 for the Fast DDS participants (`--dds-shm`); `None`: this build's default
     /// (on when Fast DDS came from a ROS 2 installation, whose nodes share it).
     pub shared_memory: Option<bool>,
+    /// Write ROS 2 `/diagnostics` from the snapshots the core publishes (`--ros-diagnostics`).
+    pub ros_diagnostics: bool,
 }
 
 #[cfg(test)]

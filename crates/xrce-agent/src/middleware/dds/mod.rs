@@ -113,6 +113,7 @@ use super::{
 };
 use crate::profile::{self};
 
+mod diagnostics;
 mod gate;
 mod observe;
 mod spec;
@@ -418,6 +419,8 @@ pub struct Dds {
     /// Per DDS writer with samples in `after_send`: the readers they went ahead to. A later sample goes ahead
     /// only to these (a reader that got an earlier one through DDS must get the later one after it).
     ahead_to: HashMap<[u8; 16], Vec<EntityRef>>,
+    /// ROS 2 `/diagnostics` (`--ros-diagnostics`), when on.
+    diagnostics: Option<diagnostics::RosDiagnostics>,
 }
 
 impl Drop for Dds {
@@ -511,6 +514,7 @@ impl Dds {
             after_send: VecDeque::new(),
             after_send_since: None,
             ahead_to: HashMap::new(),
+            diagnostics: None,
         }
     }
 
@@ -525,6 +529,12 @@ impl Dds {
     /// `xrce-rs`) instead of one DDS participant per XRCE participant name (see the module documentation).
     pub fn with_shared_participants(mut self, share: bool) -> Self {
         self.share_participants = share;
+        self
+    }
+
+    /// Writes ROS 2 `/diagnostics` from each snapshot the core publishes (`--ros-diagnostics`).
+    pub fn with_ros_diagnostics(mut self, on: bool) -> Self {
+        self.diagnostics = on.then(diagnostics::RosDiagnostics::default);
         self
     }
 
@@ -1079,6 +1089,9 @@ impl Middleware for Dds {
             _ => None,
         };
         self.graph_link(creation.entity, name);
+        if let (Some(d), Some(name)) = (&mut self.diagnostics, name) {
+            d.name_client(creation.entity.client, name);
+        }
         Ok(())
     }
 
@@ -1106,6 +1119,9 @@ impl Middleware for Dds {
         self.flush_pending();
         if !self.owned.forget(client) {
             return;
+        }
+        if let Some(d) = &mut self.diagnostics {
+            d.forget(client);
         }
         self.pinned.retain(|e| e.client != client);
         self.gates.retain(|e, _| e.client != client);
@@ -1283,6 +1299,10 @@ impl Middleware for Dds {
 
     fn stats(&self) -> super::MiddlewareStats {
         self.observed_stats()
+    }
+
+    fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, _now: Instant) {
+        self.write_diagnostics(snapshot);
     }
 }
 
