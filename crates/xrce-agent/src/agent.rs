@@ -358,7 +358,7 @@ impl AgentHandle {
     }
 
     /// Publishes snapshots to `board` every `period` from the server's loop ([`AgentCore::publish_snapshots`]).
-    fn publish_snapshots(&self, board: Arc<SnapshotBoard>, period: Duration) {
+    fn publish_snapshots(&self, board: Option<Arc<SnapshotBoard>>, period: Duration) {
         each_agent!(self, agent => agent.core.with(move |c| c.publish_snapshots(board, period, Instant::now())))
     }
 
@@ -484,7 +484,7 @@ impl AgentInstance {
         // ROS 2 diagnostics are written by the DDS middleware from the snapshots the loop publishes.
         let diagnostics = config.ros_diagnostics && kind != MiddlewareKind::Ced;
         if metrics.is_some() || diagnostics {
-            agent.publish_snapshots(board, SNAPSHOT_PERIOD);
+            agent.publish_snapshots(metrics.is_some().then_some(board), SNAPSHOT_PERIOD);
         }
         Ok(Self { config, agent, stop, server: Some(server), local_addr, metrics })
     }

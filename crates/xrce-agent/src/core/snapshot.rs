@@ -3,6 +3,7 @@
 //! ([`AgentCore::snapshot`]); what reads it (the `--metrics` server, ROS 2 diagnostics, the library API)
 //! never touches the core.
 
+use std::cmp::Reverse;
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -13,6 +14,7 @@ use xrce_proto::{ClientKey, ObjectKind};
 use super::connection::Connection;
 use super::stats::{ClientCounters, CoreStats};
 use super::AgentCore;
+use crate::middleware::diagnostics::MAX_CLIENT_STATUSES;
 use crate::middleware::{Middleware, MiddlewareStats};
 
 /// Entities a client holds, by kind.
@@ -121,8 +123,11 @@ pub struct AgentSnapshot {
     pub totals: CoreStats,
     /// The middleware's state.
     pub middleware: MiddlewareStats,
-    /// Every client, in no particular order.
+    /// The clients, in no particular order: every one ([`AgentCore::snapshot`]), or a few
+    /// ([`AgentCore::snapshot_of`]).
     pub clients: Vec<ClientSnapshot>,
+    /// Every client's key, also those `clients` leaves out.
+    pub keys: Vec<ClientKey>,
 }
 
 impl AgentSnapshot {
@@ -205,12 +210,31 @@ where
 {
     /// The agent's state now: one allocation per client and stream, none on the per-sample path.
     pub fn snapshot(&self, now: Instant) -> AgentSnapshot {
+        self.snapshot_of(now, usize::MAX)
+    }
+
+    /// [`Self::snapshot`] with `max_clients` clients at most: those silent and probed first (most probes
+    /// first), then the lowest keys. What ROS 2 diagnostics alone need, without a copy of every client (at
+    /// 10,000 clients a full snapshot is ~3 MB, made again every second).
+    pub fn snapshot_of(&self, now: Instant, max_clients: usize) -> AgentSnapshot {
+        let clients = if max_clients >= self.clients.len() {
+            self.clients.values().map(|c| c.snapshot()).collect()
+        } else {
+            let mut order: Vec<(Reverse<u8>, u32, &Connection<E>)> =
+                self.clients.values().map(|c| (Reverse(c.probes), c.key.to_u32(), &**c)).collect();
+            if max_clients > 0 {
+                order.select_nth_unstable_by_key(max_clients - 1, |(p, k, _)| (*p, *k));
+            }
+            order.truncate(max_clients);
+            order.iter().map(|(_, _, c)| c.snapshot()).collect()
+        };
         AgentSnapshot {
             taken_at: now,
             transport: self.transport_name,
             totals: self.stats,
             middleware: self.middleware.stats(),
-            clients: self.clients.values().map(|c| c.snapshot()).collect(),
+            clients,
+            keys: self.clients.keys().copied().collect(),
         }
     }
 }
@@ -239,7 +263,9 @@ impl SnapshotBoard {
 /// What a core publishes to, and when next.
 #[derive(Debug)]
 pub(super) struct Publisher {
-    board: Arc<SnapshotBoard>,
+    /// Where every client's snapshot goes, when something reads it (`--metrics`); `None`: only the
+    /// middleware sees a snapshot of [`MAX_CLIENT_STATUSES`] clients.
+    board: Option<Arc<SnapshotBoard>>,
     period: Duration,
     pub(super) next: Instant,
 }
@@ -251,7 +277,9 @@ where
 {
     /// Publishes a snapshot to `board` now, then every `period` (at least 10 ms) from
     /// [`Self::handle_timeout`]; the middleware sees each ([`Middleware::on_snapshot`]: ROS 2 diagnostics).
-    pub fn publish_snapshots(&mut self, board: Arc<SnapshotBoard>, period: Duration, now: Instant) {
+    /// Without a board only the middleware sees them, with the [`MAX_CLIENT_STATUSES`] clients ROS 2
+    /// diagnostics show ([`Self::snapshot_of`]).
+    pub fn publish_snapshots(&mut self, board: Option<Arc<SnapshotBoard>>, period: Duration, now: Instant) {
         self.publisher = Some(Publisher { board, period: period.max(Duration::from_millis(10)), next: now });
         self.publish_due(now);
     }
@@ -262,10 +290,13 @@ where
         if publisher.next > now {
             return;
         }
-        let snapshot = Arc::new(self.snapshot(now));
+        let limit = if publisher.board.is_some() { usize::MAX } else { MAX_CLIENT_STATUSES };
+        let snapshot = Arc::new(self.snapshot_of(now, limit));
         self.middleware.on_snapshot(&snapshot, now);
         if let Some(publisher) = &mut self.publisher {
-            publisher.board.store(snapshot);
+            if let Some(board) = &publisher.board {
+                board.store(snapshot);
+            }
             publisher.next = now + publisher.period;
         }
     }

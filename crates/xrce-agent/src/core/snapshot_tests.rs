@@ -63,7 +63,7 @@ fn snapshots_are_published_on_the_cores_timer() {
     let board = Arc::new(SnapshotBoard::default());
     let t0 = Instant::now();
     assert!(board.latest().is_none());
-    core.publish_snapshots(board.clone(), Duration::from_secs(1), t0);
+    core.publish_snapshots(Some(board.clone()), Duration::from_secs(1), t0);
     let first = board.latest().expect("published at once");
     assert_eq!(first.taken_at, t0);
     assert_eq!(core.poll_timeout(), Some(t0 + Duration::from_secs(1)));
@@ -72,4 +72,22 @@ fn snapshots_are_published_on_the_cores_timer() {
     assert!(Arc::ptr_eq(&first, &board.latest().expect("kept")), "not due yet");
     core.handle_timeout(t0 + Duration::from_secs(1));
     assert_eq!(board.latest().expect("published").clients.len(), 1);
+}
+
+#[test]
+fn a_limited_snapshot_keeps_the_probed_then_the_lowest_keys_and_knows_every_key() {
+    let mut core = core_with(CoreConfig::default());
+    let now = Instant::now();
+    for (port, key) in [(7, 0x30), (8, 0x10), (9, 0x20), (10, 0x40)] {
+        core.handle_datagram(port, &create_client(key), now);
+    }
+    if let Some(c) = core.clients.get_mut(&ClientKey::from_u32(0x40)) {
+        c.probes = 1;
+    }
+    let s = core.snapshot_of(now, 2);
+    let mut shown: Vec<u32> = s.clients.iter().map(|c| c.key.to_u32()).collect();
+    shown.sort_unstable();
+    assert_eq!(shown, [0x10, 0x40], "the probed one, then the lowest key");
+    assert_eq!(s.keys.len(), 4);
+    assert_eq!(core.snapshot(now).clients.len(), 4);
 }

@@ -46,6 +46,11 @@ impl Default for Limits {
     }
 }
 
+/// How often the server looks for a new snapshot to render while scrapes come.
+const RENDER_CHECK: Duration = Duration::from_millis(100);
+/// A scrape within this long means more are coming: new snapshots are rendered ahead of them.
+const SCRAPES_EXPECTED: Duration = Duration::from_secs(120);
+
 const LISTENER: Token = Token(0);
 const WAKER: Token = Token(1);
 /// Connection `i` has token `FIRST_CONNECTION + i`.
@@ -82,6 +87,9 @@ pub struct Server {
     connections: Vec<Option<Connection>>,
     rendered: Option<(Arc<AgentSnapshot>, Arc<[u8]>)>,
     limits: Limits,
+    /// When `/metrics` was last asked for: while scrapes come, each new snapshot is rendered as soon as it
+    /// is published, so a scrape finds its text ready.
+    last_scrape: Option<Instant>,
 }
 
 impl Server {
@@ -97,7 +105,7 @@ impl Server {
         poll.registry().register(&mut listener, LISTENER, Interest::READABLE)?;
         let waker = Arc::new(mio::Waker::new(poll.registry(), WAKER)?);
         let connections = (0..limits.max_connections.max(1)).map(|_| None).collect();
-        Ok(Self { poll, listener, waker, board, connections, rendered: None, limits })
+        Ok(Self { poll, listener, waker, board, connections, rendered: None, limits, last_scrape: None })
     }
 
     /// The address it listens on.
@@ -114,8 +122,8 @@ impl Server {
     pub fn run(mut self, stop: &AtomicBool) -> io::Result<()> {
         let mut events = Events::with_capacity(128);
         while !stop.load(Ordering::Relaxed) {
-            let wait = self.next_deadline().map_or(Duration::from_secs(1), |d| {
-                d.saturating_duration_since(Instant::now()).clamp(Duration::from_millis(1), Duration::from_secs(1))
+            let wait = self.next_deadline().map_or(RENDER_CHECK, |d| {
+                d.saturating_duration_since(Instant::now()).clamp(Duration::from_millis(1), RENDER_CHECK)
             });
             if let Err(e) = self.poll.poll(&mut events, Some(wait)) {
                 if e.kind() != io::ErrorKind::Interrupted {
@@ -129,7 +137,12 @@ impl Server {
                     Token(t) => self.serve(t.wrapping_sub(FIRST_CONNECTION)),
                 }
             }
-            self.close_expired(Instant::now());
+            let now = Instant::now();
+            self.close_expired(now);
+            if self.last_scrape.is_some_and(|at| now.saturating_duration_since(at) < SCRAPES_EXPECTED) {
+                // Ahead of the next scrape; a no-op when the latest snapshot is rendered already.
+                let _ = self.metrics_text();
+            }
         }
         Ok(())
     }
@@ -218,7 +231,7 @@ impl Server {
     /// The answer to a request whose routing gave `route`.
     fn answer(&mut self, route: Route) -> Answer {
         let (status, extra, body): (&str, &str, Arc<[u8]>) = match route {
-            Route::Metrics => match self.metrics_text() {
+            Route::Metrics => match self.scraped() {
                 Some(body) => ("200 OK", "Content-Type: text/plain; version=0.0.4; charset=utf-8\r\n", body),
                 None => ("503 Service Unavailable", "", Arc::from(&b"no snapshot yet\n"[..])),
             },
@@ -229,6 +242,12 @@ impl Server {
         };
         let head = format!("HTTP/1.1 {status}\r\n{extra}Content-Length: {}\r\nConnection: close\r\n\r\n", body.len());
         Answer { head: head.into_bytes(), body, sent: 0 }
+    }
+
+    /// [`Self::metrics_text`] for a scrape.
+    fn scraped(&mut self) -> Option<Arc<[u8]>> {
+        self.last_scrape = Some(Instant::now());
+        self.metrics_text()
     }
 
     /// The text of the latest snapshot, rendered once per snapshot.

@@ -66,7 +66,7 @@ impl DiagnosticsState {
         rated.sort_unstable_by(|(la, a), (lb, b)| lb.cmp(la).then(a.key.to_u32().cmp(&b.key.to_u32())));
         rated.truncate(MAX_CLIENT_STATUSES);
         let stale: Vec<(ClientKey, Shown)> = {
-            let present: HashMap<ClientKey, ()> = snapshot.clients.iter().map(|c| (c.key, ())).collect();
+            let present: HashMap<ClientKey, ()> = snapshot.keys.iter().map(|k| (*k, ())).collect();
             self.shown.iter().filter(|(k, _)| !present.contains_key(*k)).map(|(k, s)| (*k, s.clone())).collect()
         };
         let mut enc = Encoder::default();
@@ -107,8 +107,8 @@ impl DiagnosticsState {
         let t = &s.totals;
         let all = s.client_totals();
         let values = [
-            ("clients", s.clients.len().to_string()),
-            ("clients not shown", s.clients.len().saturating_sub(shown).to_string()),
+            ("clients", s.keys.len().to_string()),
+            ("clients not shown", s.keys.len().saturating_sub(shown).to_string()),
             ("transport", s.transport.to_owned()),
             ("samples received", all.samples_in.to_string()),
             ("samples sent", all.samples_out.to_string()),
@@ -119,7 +119,7 @@ impl DiagnosticsState {
             ("writers without credit", s.middleware.writers_without_credit.to_string()),
             ("samples at first-contact gate", s.middleware.samples_at_gate.to_string()),
         ];
-        let message = format!("{} clients", s.clients.len());
+        let message = format!("{} clients", s.keys.len());
         enc.status(Level::Ok, "xrce_agent: agent", &message, "xrce-agent", &values);
     }
 }
@@ -256,6 +256,7 @@ mod tests {
             transport: "udp4",
             totals: CoreStats::default(),
             middleware: MiddlewareStats::default(),
+            keys: clients.iter().map(|c| c.key).collect(),
             clients,
         }
     }
