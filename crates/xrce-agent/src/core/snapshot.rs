@@ -93,6 +93,8 @@ pub struct ClientSnapshot {
     pub key: ClientKey,
     /// Its session id.
     pub session_id: u8,
+    /// Its named participant's name (its ROS 2 node), when the middleware keeps it (DDS).
+    pub name: Option<String>,
     /// Where it sends from, as the logs print it (`None` for a client created through the API that has not
     /// sent yet).
     pub peer: Option<String>,
@@ -167,6 +169,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             counters: self.counters_with_streams(),
             key: self.key,
             session_id: self.session_id,
+            name: None,
             peer: self.endpoint.map(|e| format!("{e:?}")),
             mtu: self.mtu,
             created_at: self.created_at,
@@ -217,8 +220,9 @@ where
     /// first), then the lowest keys. What ROS 2 diagnostics alone need, without a copy of every client (at
     /// 10,000 clients a full snapshot is ~3 MB, made again every second).
     pub fn snapshot_of(&self, now: Instant, max_clients: usize) -> AgentSnapshot {
+        let named = |c: &Connection<E>| ClientSnapshot { name: self.middleware.client_name(c.key), ..c.snapshot() };
         let clients = if max_clients >= self.clients.len() {
-            self.clients.values().map(|c| c.snapshot()).collect()
+            self.clients.values().map(|c| named(c)).collect()
         } else {
             let mut order: Vec<(Reverse<u8>, u32, &Connection<E>)> =
                 self.clients.values().map(|c| (Reverse(c.probes), c.key.to_u32(), &**c)).collect();
@@ -226,7 +230,7 @@ where
                 order.select_nth_unstable_by_key(max_clients - 1, |(p, k, _)| (*p, *k));
             }
             order.truncate(max_clients);
-            order.iter().map(|(_, _, c)| c.snapshot()).collect()
+            order.iter().map(|(_, _, c)| named(c)).collect()
         };
         AgentSnapshot {
             taken_at: now,

@@ -156,15 +156,19 @@ impl SnapshotCollector {
         {
             let mut f = e.encode_descriptor(
                 "xrce_agent_client_info",
-                "A client's session: its peer as the logs print it, session id and MTU (value 1)",
+                "A client's session: its node (named participant), peer as the logs print it, session id and MTU (value 1)",
                 None,
                 MetricType::Gauge,
             )?;
             for (labels, c) in labelled() {
                 let session = format!("{:#04x}", c.session_id);
                 let mtu = c.mtu.to_string();
-                let extra =
-                    [("peer", c.peer.as_deref().unwrap_or("")), ("session", session.as_str()), ("mtu", mtu.as_str())];
+                let extra = [
+                    ("name", c.name.as_deref().unwrap_or("")),
+                    ("peer", c.peer.as_deref().unwrap_or("")),
+                    ("session", session.as_str()),
+                    ("mtu", mtu.as_str()),
+                ];
                 ConstGauge::new(1i64).encode(f.encode_family(&(labels, extra))?)?;
             }
         }

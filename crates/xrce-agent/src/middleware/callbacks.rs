@@ -168,6 +168,9 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn stats(&self) -> super::MiddlewareStats {
         self.inner.stats()
     }
+    fn client_name(&self, client: xrce_proto::ClientKey) -> Option<String> {
+        self.inner.client_name(client)
+    }
     fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, now: Instant) {
         self.inner.on_snapshot(snapshot, now);
     }

@@ -54,14 +54,9 @@ fn troubles(c: &ClientSnapshot) -> u64 {
 }
 
 impl DiagnosticsState {
-    /// The CDR body of the array for `snapshot`; `names` gives a client's node name, if it has one. `wall`:
-    /// the time stamped in the header.
-    pub fn encode(
-        &mut self,
-        snapshot: &AgentSnapshot,
-        names: &dyn Fn(ClientKey) -> Option<String>,
-        wall: SystemTime,
-    ) -> Vec<u8> {
+    /// The CDR body of the array for `snapshot`, a client named after its node when it has one; `wall`: the
+    /// time stamped in the header.
+    pub fn encode(&mut self, snapshot: &AgentSnapshot, wall: SystemTime) -> Vec<u8> {
         let mut rated: Vec<(Level, &ClientSnapshot)> = snapshot.clients.iter().map(|c| (self.level(c), c)).collect();
         rated.sort_unstable_by(|(la, a), (lb, b)| lb.cmp(la).then(a.key.to_u32().cmp(&b.key.to_u32())));
         rated.truncate(MAX_CLIENT_STATUSES);
@@ -78,7 +73,7 @@ impl DiagnosticsState {
         self.agent_status(&mut enc, snapshot, rated.len());
         let mut shown = HashMap::with_capacity(rated.len());
         for (level, c) in &rated {
-            let name = match names(c.key) {
+            let name = match &c.name {
                 Some(node) => format!("xrce_agent: {node}"),
                 None => format!("xrce_agent: client {:08x}", c.key.to_u32()),
             };
@@ -239,6 +234,7 @@ mod tests {
         ClientSnapshot {
             key: ClientKey::from_u32(key),
             session_id: 0x81,
+            name: (key == 1).then(|| "talker".to_owned()),
             peer: Some("127.0.0.1:5000".into()),
             mtu: 512,
             created_at: now,
@@ -264,8 +260,7 @@ mod tests {
     #[test]
     fn one_status_per_client_with_its_level() {
         let mut state = DiagnosticsState::default();
-        let names = |k: ClientKey| (k.to_u32() == 1).then(|| "talker".to_owned());
-        let first = decode(&state.encode(&snapshot(vec![client(1, 0, 0), client(2, 0, 5)]), &names, UNIX_EPOCH));
+        let first = decode(&state.encode(&snapshot(vec![client(1, 0, 0), client(2, 0, 5)]), UNIX_EPOCH));
         let levels: Vec<(u8, &str)> = first.iter().map(|(l, n, ..)| (*l, n.as_str())).collect();
         assert_eq!(
             levels,
@@ -274,13 +269,13 @@ mod tests {
         );
         assert!(first[2].3.contains(&("retransmissions".into(), "5".into())));
         // Client 2 retransmitted again; client 1 is silent and probed; then client 2 is gone.
-        let second = decode(&state.encode(&snapshot(vec![client(1, 2, 0), client(2, 0, 6)]), &names, UNIX_EPOCH));
+        let second = decode(&state.encode(&snapshot(vec![client(1, 2, 0), client(2, 0, 6)]), UNIX_EPOCH));
         let levels: Vec<u8> = second.iter().map(|(l, ..)| *l).collect();
         assert_eq!(levels, [0, 2, 1], "agent OK, talker ERROR (first: worst first), client 2 WARN");
-        let third = decode(&state.encode(&snapshot(vec![client(1, 0, 0)]), &names, UNIX_EPOCH));
+        let third = decode(&state.encode(&snapshot(vec![client(1, 0, 0)]), UNIX_EPOCH));
         let levels: Vec<(u8, &str)> = third.iter().map(|(l, n, ..)| (*l, n.as_str())).collect();
         assert_eq!(levels, [(0, "xrce_agent: agent"), (0, "xrce_agent: talker"), (3, "xrce_agent: client 00000002")]);
-        let fourth = decode(&state.encode(&snapshot(vec![client(1, 0, 0)]), &names, UNIX_EPOCH));
+        let fourth = decode(&state.encode(&snapshot(vec![client(1, 0, 0)]), UNIX_EPOCH));
         assert_eq!(fourth.len(), 2, "STALE once");
     }
 }

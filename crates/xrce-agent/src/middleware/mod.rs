@@ -335,6 +335,12 @@ pub trait Middleware {
         MiddlewareStats::default()
     }
 
+    /// The name of `client`'s named participant (its ROS 2 node, for micro-ROS), if the middleware keeps
+    /// one; read once per snapshot. Default: none.
+    fn client_name(&self, _client: ClientKey) -> Option<String> {
+        None
+    }
+
     /// Sees each snapshot the core publishes ([`AgentCore::publish_snapshots`](crate::core::AgentCore::publish_snapshots)),
     /// on the loop's thread: the DDS middleware writes ROS 2 `/diagnostics` from it. Default: nothing.
     fn on_snapshot(&mut self, _snapshot: &crate::core::AgentSnapshot, _now: Instant) {}
@@ -416,6 +422,9 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     }
     fn stats(&self) -> MiddlewareStats {
         (**self).stats()
+    }
+    fn client_name(&self, client: ClientKey) -> Option<String> {
+        (**self).client_name(client)
     }
     fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, now: Instant) {
         (**self).on_snapshot(snapshot, now);

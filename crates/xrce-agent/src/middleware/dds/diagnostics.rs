@@ -2,11 +2,9 @@
 //! `DiagnosticArray` on `rt/diagnostics` ([`crate::middleware::diagnostics`] encodes it), from the agent's
 //! default DDS participant, created on first use like the ROS 2 graph's writer.
 
-use foldhash::HashMap;
 use std::time::SystemTime;
 
 use xrce_dds::{Durability, EndpointQos, History, Participant, RawWriter, Reliability, AGENT_DOMAIN};
-use xrce_proto::ClientKey;
 
 use super::Dds;
 use crate::core::AgentSnapshot;
@@ -18,8 +16,6 @@ pub(super) struct RosDiagnostics {
     state: DiagnosticsState,
     /// The participant and writer, once created.
     writer: Option<(Participant, RawWriter)>,
-    /// Node names: the name of each client's named participant.
-    names: HashMap<ClientKey, String>,
     /// The writer could not be created: no more attempts (warned once).
     failed: bool,
 }
@@ -27,18 +23,6 @@ pub(super) struct RosDiagnostics {
 impl std::fmt::Debug for RosDiagnostics {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RosDiagnostics").field("writer", &self.writer.is_some()).finish_non_exhaustive()
-    }
-}
-
-impl RosDiagnostics {
-    /// Names a client after its participant named `name`.
-    pub(super) fn name_client(&mut self, client: ClientKey, name: &str) {
-        self.names.insert(client, name.to_owned());
-    }
-
-    /// Forgets a client's name.
-    pub(super) fn forget(&mut self, client: ClientKey) {
-        self.names.remove(&client);
     }
 }
 
@@ -71,8 +55,7 @@ impl Dds {
                 }
             }
         }
-        let names = &d.names;
-        let body = d.state.encode(snapshot, &|k| names.get(&k).cloned(), SystemTime::now());
+        let body = d.state.encode(snapshot, SystemTime::now());
         if let Some((_, w)) = &d.writer {
             if let Err(e) = w.write(&body) {
                 tracing::debug!("/diagnostics sample not written: {e}");

@@ -421,6 +421,8 @@ pub struct Dds {
     ahead_to: HashMap<[u8; 16], Vec<EntityRef>>,
     /// ROS 2 `/diagnostics` (`--ros-diagnostics`), when on.
     diagnostics: Option<diagnostics::RosDiagnostics>,
+    /// The name of each client's named participant (the last one created), for snapshots.
+    names: HashMap<ClientKey, String>,
 }
 
 impl Drop for Dds {
@@ -515,6 +517,7 @@ impl Dds {
             after_send_since: None,
             ahead_to: HashMap::new(),
             diagnostics: None,
+            names: HashMap::new(),
         }
     }
 
@@ -1089,8 +1092,8 @@ impl Middleware for Dds {
             _ => None,
         };
         self.graph_link(creation.entity, name);
-        if let (Some(d), Some(name)) = (&mut self.diagnostics, name) {
-            d.name_client(creation.entity.client, name);
+        if let Some(name) = name {
+            self.names.insert(creation.entity.client, name.to_owned());
         }
         Ok(())
     }
@@ -1120,9 +1123,7 @@ impl Middleware for Dds {
         if !self.owned.forget(client) {
             return;
         }
-        if let Some(d) = &mut self.diagnostics {
-            d.forget(client);
-        }
+        self.names.remove(&client);
         self.pinned.retain(|e| e.client != client);
         self.gates.retain(|e, _| e.client != client);
         self.held.retain(|e, _| e.client != client);
@@ -1299,6 +1300,10 @@ impl Middleware for Dds {
 
     fn stats(&self) -> super::MiddlewareStats {
         self.observed_stats()
+    }
+
+    fn client_name(&self, client: ClientKey) -> Option<String> {
+        self.names.get(&client).cloned()
     }
 
     fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, _now: Instant) {
