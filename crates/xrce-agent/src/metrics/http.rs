@@ -4,7 +4,9 @@
 //! new one past it closes the oldest, so idle connections cannot lock a scraper out), a request of at most
 //! [`MAX_REQUEST_BYTES`] (longer: 431 and closed), [`CONNECTION_TIMEOUT`] per connection from accept to the
 //! last byte of the answer (a request trickled a byte a second is closed then), one request per connection
-//! (`Connection: close`). Anything but `GET /metrics`: 404, or 405 for another method on `/metrics`.
+//! (`Connection: close`; after the answer the server reads and drops what the client still sends until it
+//! closes, so that an answer to a request still being sent is not lost to a reset). Anything but
+//! `GET /metrics`: 404, or 405 for another method on `/metrics`.
 
 use std::io::{self, Read, Write};
 use std::net::SocketAddr;
@@ -76,6 +78,10 @@ struct Connection {
     opened: Instant,
     request: Vec<u8>,
     answer: Option<Answer>,
+    /// The answer is sent and the write side shut: what the client still sends is read and dropped until it
+    /// closes (a lingering close: closing with unread input would reset the connection, and the client
+    /// could lose the answer, a 431 to a request still being sent, say).
+    draining: bool,
 }
 
 /// The server: its listener, connections, and the text of the latest snapshot it rendered.
@@ -166,7 +172,8 @@ impl Server {
                 Some(free) => free,
                 None => self.close_oldest(),
             };
-            let mut conn = Connection { stream, opened: Instant::now(), request: Vec::new(), answer: None };
+            let mut conn =
+                Connection { stream, opened: Instant::now(), request: Vec::new(), answer: None, draining: false };
             let token = Token(FIRST_CONNECTION + slot);
             if self.poll.registry().register(&mut conn.stream, token, Interest::READABLE).is_ok() {
                 if let Some(s) = self.connections.get_mut(slot) {
@@ -211,7 +218,9 @@ impl Server {
     /// Reads what a connection sent, answers once its request is complete, writes what the socket takes.
     fn serve(&mut self, slot: usize) {
         let Some(Some(conn)) = self.connections.get_mut(slot) else { return };
-        let keep = if conn.answer.is_none() {
+        let keep = if conn.draining {
+            drain(conn)
+        } else if conn.answer.is_none() {
             match read_request(conn, self.limits.max_request_bytes) {
                 Ok(Some(status)) => {
                     let answer = self.answer(status);
@@ -282,7 +291,12 @@ impl Server {
             let (head, body) = answer.remaining();
             let chunk = if head.is_empty() { body } else { head };
             if chunk.is_empty() {
-                return false;
+                // All sent: linger until the client closes (or the connection's time is up).
+                conn.draining = true;
+                let token = Token(FIRST_CONNECTION + slot);
+                return conn.stream.shutdown(std::net::Shutdown::Write).is_ok()
+                    && self.poll.registry().reregister(&mut conn.stream, token, Interest::READABLE).is_ok()
+                    && drain(conn);
             }
             match conn.stream.write(chunk) {
                 Ok(0) => return false,
@@ -291,6 +305,20 @@ impl Server {
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(_) => return false,
             }
+        }
+    }
+}
+
+/// Reads and drops what a lingering connection sends; false once it closed (or failed).
+fn drain(conn: &mut Connection) -> bool {
+    let mut sink = [0u8; 2048];
+    loop {
+        match conn.stream.read(&mut sink) {
+            Ok(0) => return false,
+            Ok(_) => {}
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => return true,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(_) => return false,
         }
     }
 }
