@@ -82,6 +82,22 @@ impl AnyEndpoint {
             _ => None,
         }
     }
+
+    /// The name of the transport the peer is on, as the command line's subcommands name them (`udp4`,
+    /// `tcp6`, `serial`, `canfd`, `custom`): a client's own transport in snapshots and metrics.
+    pub fn transport_name(&self) -> &'static str {
+        match self.peer {
+            Peer::Udp(a) if a.is_ipv4() => "udp4",
+            Peer::Udp(_) => "udp6",
+            Peer::Tcp(c) if c.peer.is_ipv4() => "tcp4",
+            Peer::Tcp(_) => "tcp6",
+            #[cfg(target_os = "linux")]
+            Peer::Serial(_) => "serial",
+            #[cfg(target_os = "linux")]
+            Peer::Can(_) => "canfd",
+            Peer::Custom(_) => "custom",
+        }
+    }
 }
 
 /// The shells' endpoint types, as [`Peer`]s and back.
