@@ -536,4 +536,14 @@ mod tests {
         served.send(0, &mut spent);
         assert_eq!(spent.buffers.len(), 2, "the message of another transport's kind and the sent one");
     }
+
+    #[test]
+    fn an_endpoint_names_its_transport_by_kind_and_address_family() {
+        let on = |peer| AnyEndpoint { transport: 3, peer }.transport_name();
+        let v6: SocketAddr = "[::1]:7".parse().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(on(Peer::Udp(([127, 0, 0, 1], 7).into())), "udp4");
+        assert_eq!(on(Peer::Udp(v6)), "udp6");
+        assert_eq!(on(Peer::Tcp(ConnId { number: 1, peer: ([127, 0, 0, 1], 7).into() })), "tcp4");
+        assert_eq!(on(Peer::Tcp(ConnId { number: 1, peer: v6 })), "tcp6");
+    }
 }
