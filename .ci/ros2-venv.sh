@@ -14,8 +14,8 @@ set -euo pipefail
 out_arg=${1:?usage: ros2-venv.sh OUT_DIR [jazzy|kilted]}
 distro=${2:-jazzy}
 case "$distro" in
-  jazzy) packages=(ros-rclpy==7.1.6 ros-rmw-fastrtps-cpp==8.4.3 ros-std-msgs==5.3.6 ros-std-srvs==5.3.6 ros-fastrtps==2.14.5) ;;
-  kilted) packages=(ros-rclpy==9.1.2 ros-rmw-fastrtps-cpp==9.3.3 ros-std-msgs==5.5.1 ros-std-srvs==5.5.1 ros-fastdds==3.2.3) ;;
+  jazzy) packages=(ros-rclpy==7.1.6 ros-rmw-fastrtps-cpp==8.4.3 ros-std-msgs==5.3.6 ros-std-srvs==5.3.6 ros-diagnostic-msgs==5.3.6 ros-fastrtps==2.14.5) ;;
+  kilted) packages=(ros-rclpy==9.1.2 ros-rmw-fastrtps-cpp==9.3.3 ros-std-msgs==5.5.1 ros-std-srvs==5.5.1 ros-diagnostic-msgs==5.5.1 ros-fastdds==3.2.3) ;;
   *) echo "ros2-venv.sh: unknown distribution $distro (jazzy or kilted)" >&2; exit 2 ;;
 esac
 mkdir -p "$out_arg"
@@ -54,7 +54,7 @@ if ! check; then
 fi
 # rclpy must import with the venv's libraries (no DDS participant is created here).
 if ! LD_LIBRARY_PATH="$out/lib" AMENT_PREFIX_PATH="$out" RMW_IMPLEMENTATION=rmw_fastrtps_cpp \
-    "$out/bin/python" -c 'import rclpy, std_msgs.msg, std_srvs.srv' >"$log" 2>&1; then
+    "$out/bin/python" -c 'import rclpy, std_msgs.msg, std_srvs.srv, diagnostic_msgs.msg' >"$log" 2>&1; then
   cat "$log" >&2
   exit 1
 fi

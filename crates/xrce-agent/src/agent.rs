@@ -22,7 +22,8 @@ use xrce_proto::{ClientKey, EntityVariant, ObjectId, ObjectKind, StatusCode};
 
 use crate::cli::{self, Config, Transport};
 use crate::config_file::{FileConfig, TransportSpec};
-use crate::core::{AgentCore, CoreConfig};
+use crate::core::{AgentCore, AgentSnapshot, CoreConfig, SnapshotBoard};
+use crate::metrics::MetricsServer;
 use crate::middleware::callbacks::{Callback, CallbackKind, CallbackRegistry, WithCallbacks};
 use crate::middleware::profiles::StoreProfiles;
 use crate::middleware::ros_graph::RosGraphMode;
@@ -100,6 +101,9 @@ fn to_cli_kind(kind: cli::MiddlewareKind) -> MiddlewareKind {
         cli::MiddlewareKind::Rtps => MiddlewareKind::Rtps,
     }
 }
+
+/// How often the server's loop publishes a snapshot for `--metrics` and ROS 2 diagnostics.
+pub const SNAPSHOT_PERIOD: Duration = Duration::from_secs(1);
 
 /// An entity's text description, owned so that it can travel to the server's loop.
 enum Repr {
@@ -301,6 +305,12 @@ impl<E: Copy + Eq + Hash + Debug + Send + 'static> Agent<E> {
         self.core.with(|c| c.reset());
     }
 
+    /// The agent's state now ([`AgentSnapshot`]): every client with its streams and counters, the agent's
+    /// totals, the middleware's. Built in the running server's next turn (or at once while none runs).
+    pub fn snapshot(&self) -> AgentSnapshot {
+        self.core.with(|c| c.snapshot(Instant::now()))
+    }
+
     /// Sets the log level, eProsima's 0 (off) .. 6 (trace with hex dumps).
     pub fn set_verbose_level(&self, level: u8) {
         crate::logging::set_verbose_level(level);
@@ -334,6 +344,67 @@ pub enum AgentHandle {
     Multi(Agent<AnyEndpoint>),
 }
 
+/// Runs `$body` with `$agent` bound to the [`Agent`] of any transport family.
+macro_rules! each_agent {
+    ($handle:expr, $agent:ident => $body:expr) => {
+        match $handle {
+            AgentHandle::Udp($agent) => $body,
+            AgentHandle::Tcp($agent) => $body,
+            #[cfg(target_os = "linux")]
+            AgentHandle::Serial($agent) => $body,
+            #[cfg(target_os = "linux")]
+            AgentHandle::Can($agent) => $body,
+            AgentHandle::Multi($agent) => $body,
+        }
+    };
+}
+
+impl AgentHandle {
+    /// The agent's state now ([`Agent::snapshot`]).
+    pub fn snapshot(&self) -> AgentSnapshot {
+        each_agent!(self, agent => agent.snapshot())
+    }
+
+    /// Publishes snapshots to `board` every `period` from the server's loop ([`AgentCore::publish_snapshots`]).
+    fn publish_snapshots(&self, board: Option<Arc<SnapshotBoard>>, period: Duration) {
+        each_agent!(self, agent => agent.core.with(move |c| c.publish_snapshots(board, period, Instant::now())))
+    }
+
+    /// Names the transport in snapshots.
+    fn set_transport_name(&self, name: &'static str) {
+        each_agent!(self, agent => agent.core.with(move |c| c.set_transport_name(name)))
+    }
+}
+
+/// What shows the agent's state (`--metrics`, `--ros-diagnostics`): started before the transports, so that
+/// a metrics port taken stops nothing that runs, and hooked to the agent once it runs.
+struct Observer {
+    board: Arc<SnapshotBoard>,
+    metrics: Option<MetricsServer>,
+}
+
+impl Observer {
+    /// Binds the `--metrics` server, if asked for.
+    fn start(config: &Config) -> Result<Self, AgentError> {
+        let board = Arc::new(SnapshotBoard::default());
+        let metrics = config
+            .metrics
+            .map(|addr| MetricsServer::start(addr, board.clone()).map_err(cannot_open(format!("metrics port {addr}"))))
+            .transpose()?;
+        Ok(Self { board, metrics })
+    }
+
+    /// Has `agent`'s loop publish snapshots when something reads them: the metrics server, or ROS 2
+    /// diagnostics (written by the DDS middleware from each snapshot); returns the metrics server.
+    fn observe(self, agent: &AgentHandle, config: &Config) -> Option<MetricsServer> {
+        let diagnostics = config.ros_diagnostics && to_cli_kind(config.middleware) != MiddlewareKind::Ced;
+        if self.metrics.is_some() || diagnostics {
+            agent.publish_snapshots(self.metrics.is_some().then_some(self.board), SNAPSHOT_PERIOD);
+        }
+        self.metrics
+    }
+}
+
 /// A running agent built from command-line arguments (eProsima's `AgentInstance`).
 #[derive(Debug)]
 pub struct AgentInstance {
@@ -342,6 +413,7 @@ pub struct AgentInstance {
     stop: Arc<AtomicBool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
     local_addr: Option<SocketAddr>,
+    metrics: Option<MetricsServer>,
 }
 
 impl AgentInstance {
@@ -363,6 +435,7 @@ impl AgentInstance {
         if let Some(port) = config.p2p {
             return Err(AgentError::P2p(port));
         }
+        let observer = Observer::start(&config)?;
         let (agent, server, local_addr) = match config.transport {
             Transport::Udp4 { port } | Transport::Udp6 { port } => {
                 let agent = Agent::<SocketAddr>::with_dds(
@@ -440,7 +513,9 @@ impl AgentInstance {
         if config.discovery.is_some() && local_addr.is_none() {
             tracing::warn!("-d/--discovery needs a UDP or TCP transport; ignored");
         }
-        Ok(Self { config, agent, stop, server: Some(server), local_addr })
+        agent.set_transport_name(config.transport.name());
+        let metrics = observer.observe(&agent, &config);
+        Ok(Self { config, agent, stop, server: Some(server), local_addr, metrics })
     }
 
     /// Starts one agent on every transport of a configuration file (`--config`): every port and device is
@@ -451,6 +526,7 @@ impl AgentInstance {
             return Err(AgentError::P2p(port));
         }
         let kind = to_cli_kind(config.middleware);
+        let observer = Observer::start(&config)?;
         let mut core = core_config(&config);
         if file.transports.iter().any(|t| matches!(t.transport, Transport::CanFd { .. })) {
             // One frame per message on the bus; the clients of the other transports get it too (one core).
@@ -462,7 +538,11 @@ impl AgentInstance {
         core.info_port = file.transports.iter().find_map(|t| t.transport.port()).unwrap_or(core.info_port);
         let agent = Agent::<AnyEndpoint>::with_dds(kind, core, to_graph_mode(config.ros_graph), dds_options(&config))?;
         load_refs(&config, &agent.profiles)?;
-        agent.core.with(|c| c.set_peer_address(AnyEndpoint::ip_address));
+        agent.core.with(|c| {
+            c.set_peer_address(AnyEndpoint::ip_address);
+            c.set_transport_name("multi");
+            c.set_endpoint_transport(AnyEndpoint::transport_name);
+        });
         let mut server = MultiServer::new(agent.core())?;
         let mut local_addr = None;
         for spec in &file.transports {
@@ -478,7 +558,9 @@ impl AgentInstance {
         let stop = Arc::new(AtomicBool::new(false));
         let stop2 = stop.clone();
         let handle = std::thread::Builder::new().name("xrce-agent".into()).spawn(move || server.run(&stop2))?;
-        Ok(Self { config, agent: AgentHandle::Multi(agent), stop, server: Some(handle), local_addr })
+        let agent = AgentHandle::Multi(agent);
+        let metrics = observer.observe(&agent, &config);
+        Ok(Self { config, agent, stop, server: Some(handle), local_addr, metrics })
     }
 
     /// The command line it was built from.
@@ -494,6 +576,11 @@ impl AgentInstance {
     /// The address the server listens on.
     pub fn local_addr(&self) -> Option<SocketAddr> {
         self.local_addr
+    }
+
+    /// The address of the `--metrics` server, if it runs.
+    pub fn metrics_addr(&self) -> Option<SocketAddr> {
+        self.metrics.as_ref().map(MetricsServer::local_addr)
     }
 
     /// Setting this flag stops the agent (e.g. from a signal handler).
@@ -552,6 +639,7 @@ fn dds_options(config: &Config) -> DdsOptions {
         eager_participant: config.eager_participant,
         share_participants: !config.participant_names,
         shared_memory: config.dds_shm,
+        ros_diagnostics: config.ros_diagnostics,
     }
 }
 

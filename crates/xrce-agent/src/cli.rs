@@ -94,6 +94,10 @@ pub struct Config {
     pub client_timeout: Option<std::time::Duration>,
     /// Client authentication (`--allow`, `--psk-file`; ours): off when empty.
     pub auth: crate::core::AuthPolicy,
+    /// Serve Prometheus metrics at `http://ADDR:PORT/metrics` (`--metrics`; ours); `None`: off.
+    pub metrics: Option<std::net::SocketAddr>,
+    /// Publish ROS 2 `/diagnostics` through the DDS middleware (`--ros-diagnostics`; ours).
+    pub ros_diagnostics: bool,
 }
 
 /// What `--dds-engine` selects: the DDS implementation behind `-m dds`.
@@ -280,6 +284,8 @@ Arguments per transport (place them after the transport):
       --allow <KEY[@ADDRESS]>         only these client keys (hex or *) from IP, IP/PREFIX or IP:PORT
                                       may create a session; repeatable (ours) [default: anybody]
       --psk-file <FILE>               require a CREATE_CLIENT token made with this pre-shared key (ours)
+      --metrics <ADDR:PORT>           serve Prometheus metrics at http://ADDR:PORT/metrics (ours) [default: off]
+      --ros-diagnostics <on|off>      publish ROS 2 /diagnostics at 1 Hz (dds middleware; ours) [default: on]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
       --max-connections <N>           tcp4, tcp6: most connections served at once (ours) [default: 100]
@@ -415,6 +421,14 @@ struct CommonArgs {
     /// bytes, trailing whitespace removed; at least 16).
     #[arg(long, value_name = "FILE")]
     psk_file: Option<PathBuf>,
+    /// Serve Prometheus metrics (text format) at http://ADDR:PORT/metrics, e.g. 127.0.0.1:9464 (off by
+    /// default).
+    #[arg(long, value_name = "ADDR:PORT")]
+    metrics: Option<std::net::SocketAddr>,
+    /// DDS middleware: publish a ROS 2 diagnostic_msgs/DiagnosticArray on /diagnostics every second, one
+    /// status per client and one for the agent.
+    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
+    ros_diagnostics: OnOff,
 }
 
 #[derive(Debug, Args)]
@@ -625,6 +639,8 @@ impl TransportCommand {
             dds_shm: common.dds_shm.map(|v| v == OnOff::On),
             client_timeout: Some(common.client_timeout).filter(|t| !t.is_zero()),
             auth: crate::core::AuthPolicy { allow: common.allow, psk },
+            metrics: common.metrics,
+            ros_diagnostics: common.ros_diagnostics == OnOff::On,
         })
     }
 }
@@ -771,6 +787,8 @@ mod tests {
                 dds_shm: None,
                 client_timeout: Some(std::time::Duration::from_secs(60)),
                 auth: Default::default(),
+                metrics: None,
+                ros_diagnostics: true,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -1020,6 +1038,9 @@ mod tests {
         use std::time::Duration;
         assert_eq!(ok("udp4 -p 1 --client-timeout 2.5").client_timeout, Some(Duration::from_millis(2500)));
         assert_eq!(ok("udp4 -p 1 --client-timeout 0").client_timeout, None);
+        assert_eq!(ok("udp4 -p 1 --metrics 127.0.0.1:9464").metrics, Some("127.0.0.1:9464".parse().unwrap()));
+        assert_eq!(rejected("udp4 -p 1 --metrics 9464"), ErrorKind::ValueValidation);
+        assert!(!ok("udp4 -p 1 --ros-diagnostics off").ros_diagnostics);
         assert_eq!(rejected("udp4 -p 1 --client-timeout=-1"), ErrorKind::ValueValidation);
         assert_eq!(rejected("udp4 -p 1 --client-timeout soon"), ErrorKind::ValueValidation);
         let c = ok("serial -D /dev/x --allow 0xAABBCCDD --allow *@10.0.0.0/8");

@@ -4,6 +4,7 @@
 //! * [`middleware`]: the `Middleware` trait and the CED middleware.
 //! * [`transport`]: UDP and TCP shells around the core.
 //! * [`agent`]: the library API of eProsima's agent (`Agent`, `AgentInstance`).
+//! * [`metrics`]: `--metrics`, the agent's snapshot as Prometheus metrics over HTTP.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 pub mod agent;
@@ -14,6 +15,7 @@ pub mod config_file;
 pub mod core;
 pub mod logging;
 pub mod main_cli;
+pub mod metrics;
 pub mod middleware;
 pub mod profile;
 pub mod transport;

@@ -105,17 +105,32 @@ fn micro_ros_publisher_reaches_ros_subscriber() {
     check_delivery(dropped == 0, &format!("{dropped} writes dropped by the client (its stream stayed full)"));
 }
 
+/// A session of client `key` with a reliable stream each way, micro-ROS' history of 4; its output stream.
+fn reliable_session<'a>(
+    port: u16,
+    key: u32,
+    out_buf: &'a mut [u8],
+    in_buf: &'a mut [u8],
+) -> (
+    xrce_client::prelude::Session<'a, xrce_client::prelude::UdpTransport, xrce_client::prelude::StdClock>,
+    xrce_proto::StreamId,
+) {
+    use xrce_client::prelude::*;
+    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
+    let mut session = Session::new(transport, key);
+    session.create_session().expect("session");
+    let out = session.create_output_reliable_stream(out_buf, 4).expect("out stream");
+    session.create_input_reliable_stream(in_buf, 4).expect("in stream");
+    (session, out)
+}
+
 /// Creates a micro-ROS-like node `node` with a reliable volatile writer on `rt/<topic>` (binary, as
 /// rmw_microxrcedds), writes one sample and waits up to 10 s for the agent to acknowledge it: whether it did,
 /// and after how many ms (how long the first-contact gate held it).
 fn first_write_held_ms(port: u16, key: u32, node: &str, topic: &str) -> (bool, f64) {
     use xrce_client::prelude::*;
-    let transport = UdpTransport::new(IpProtocol::V4, "127.0.0.1", &port.to_string()).expect("udp");
     let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
-    let mut session = Session::new(transport, key);
-    session.create_session().expect("session");
-    let out = session.create_output_reliable_stream(&mut out_buf, 4).expect("out stream");
-    session.create_input_reliable_stream(&mut in_buf, 4).expect("in stream");
+    let (mut session, out) = reliable_session(port, key, &mut out_buf, &mut in_buf);
     let qos = QoS {
         reliability: Reliability::Reliable,
         durability: Durability::Volatile,
@@ -792,4 +807,62 @@ fn micro_ros_like_clients_through_ced() {
     assert_eq!(samples, (0..COUNT).collect(), "every sample reached the subscriber");
     assert!(served >= CALLS as usize, "the replier served {served} requests");
     assert_eq!(correct, CALLS as usize, "every call answered correctly");
+}
+
+/// A statuses line of `ros_peer.py diag`: (level, name) of each status of one array.
+fn diagnostic_levels(line: &Value) -> Vec<(u64, String)> {
+    let Some(statuses) = line["statuses"].as_array() else { return Vec::new() };
+    statuses.iter().filter_map(|s| Some((s[0].as_u64()?, s[1].as_str()?.to_owned()))).collect()
+}
+
+/// Whether some array of `lines` has every (level, name) of `want`.
+fn some_array_has(lines: &[Value], want: &[(u64, &str)]) -> bool {
+    lines.iter().filter(|v| v["event"] == "diagnostics").any(|v| {
+        let got = diagnostic_levels(v);
+        want.iter().all(|(l, n)| got.iter().any(|(gl, gn)| gl == l && gn == n))
+    })
+}
+
+/// ROS 2 `/diagnostics` (issue 22): the agent publishes a DiagnosticArray every second that the real rclpy node
+/// reads, one status for the agent and one per client named after its node: OK for a live micro-ROS-like node,
+/// ERROR for a node gone silent while the agent probes it (`--client-timeout 3`: probed from 1.5 s), then
+/// STALE once it is removed.
+#[test]
+#[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
+fn diagnostics_show_each_client_with_its_level() {
+    const PORT: u16 = 18_971;
+    let _agent = start_agent_args(PORT, &["--client-timeout", "3"]);
+    let mut ros = RosPeer::start("ros_diagnostics", &["diag", "--timeout", "40"]);
+    assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
+    let mut plan = micro_ros(PORT, 0x0007_0001, "uros_diag_alive");
+    // Publishing keeps it busy (and its session alive) for 10 s.
+    plan.publish = Some(PubPlan { topic: "diag_chatter".into(), count: 100, period_ms: 100, max_warmup: 0 });
+    let alive = Client::micro_ros_started(plan);
+    named_participant_then_silence(PORT, 0x0007_0002, "uros_diag_silent");
+    let (agent, ok, silent) = ("xrce_agent: agent", "xrce_agent: uros_diag_alive", "xrce_agent: uros_diag_silent");
+    ros.gather_until(Duration::from_secs(25), |seen| {
+        some_array_has(seen, &[(0, agent), (0, ok), (2, silent)]) && some_array_has(seen, &[(0, ok), (3, silent)])
+    });
+    let _ = alive.finish(Duration::from_secs(20));
+    let lines = ros.stop();
+    let arrays = lines.iter().filter(|v| v["event"] == "diagnostics").count();
+    let live_and_probed = some_array_has(&lines, &[(0, agent), (0, ok), (2, silent)]);
+    let stale = some_array_has(&lines, &[(0, ok), (3, silent)]);
+    let levels: Vec<Vec<(u64, String)>> = lines.iter().map(diagnostic_levels).filter(|l| !l.is_empty()).collect();
+    println!("ROS2-SUMMARY diagnostics arrays={arrays} ok_and_error={live_and_probed} stale={stale}");
+    assert!(arrays >= 2, "arrays at 1 Hz reach the ROS node: {arrays}");
+    assert!(live_and_probed, "agent OK, live node OK, silent node ERROR in one array: {levels:?}");
+    assert!(stale, "the silent node STALE once removed: {levels:?}");
+}
+
+/// A micro-ROS-like client that creates a participant named `node`, then goes silent without deleting its
+/// session (a board unplugged).
+fn named_participant_then_silence(port: u16, key: u32, node: &str) {
+    use xrce_client::prelude::*;
+    let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
+    let (mut session, out) = reliable_session(port, key, &mut out_buf, &mut in_buf);
+    let p = object_id(1, ObjectKind::Participant);
+    let req = session.buffer_create_participant_bin(out, p, 0, Some(node), REUSE | REPLACE).expect("participant");
+    let mut status = [0u8; 1];
+    assert!(session.run_session_until_all_status(5000, &[req], &mut status).expect("run"), "create: {status:?}");
 }

@@ -15,6 +15,7 @@ use xrce_proto::{
 use super::connection::Connection;
 use super::input::{info_reply, parse_submessages};
 use super::session::{parse_hard_liveliness, PACK_PROPERTY, RESUME_PROPERTY};
+use super::stats::{self, DropReason, RemoveReason};
 use super::{encode_message, AgentCore, Transmit};
 use crate::middleware::Middleware;
 
@@ -23,8 +24,8 @@ where
     E: Copy + Eq + Hash + Debug,
     M: Middleware,
 {
-    fn drop_datagram(&mut self) {
-        self.stats.datagrams_dropped = self.stats.datagrams_dropped.saturating_add(1);
+    fn drop_datagram(&mut self, reason: DropReason) {
+        self.stats.drop_datagram(reason);
     }
 
     /// Queues a reply to a peer outside any session; beyond the transmit bound it is dropped.
@@ -45,7 +46,7 @@ where
                 if let Some(held_back) = self.drop_log.admit(from, now) {
                     tracing::warn!(peer = ?from, len = bytes.len(), held_back, "dropping message: bad header: {e}");
                 }
-                self.drop_datagram();
+                self.drop_datagram(DropReason::BadHeader);
                 return;
             }
         };
@@ -63,7 +64,7 @@ where
             if let Some(held_back) = self.drop_log.admit(from, now) {
                 tracing::warn!(peer = ?from, client = %key, held_back, "dropping message: authentication is on and this session belongs to another address");
             }
-            self.drop_datagram();
+            self.drop_datagram(DropReason::ForeignSender);
             return;
         }
         let (mut ctx, client) = self.ctx_for(key);
@@ -78,7 +79,11 @@ where
         self.unserved_writes = Some(self.unserved_writes.unwrap_or(0).saturating_add(writes));
         if let Some((request, header)) = delete {
             let to = self.clients.get(&key).and_then(|c| c.endpoint);
-            let status = if self.remove_client(key) { StatusCode::OK } else { StatusCode::ERR_UNKNOWN_REFERENCE };
+            let status = if self.remove_client(key, RemoveReason::Deleted) {
+                StatusCode::OK
+            } else {
+                StatusCode::ERR_UNKNOWN_REFERENCE
+            };
             // The client is gone: answer with its header, on stream 0, to where it was.
             let reply = BaseObjectReply { related_request: request, result: ResultStatus::new(status) };
             let h = MessageHeader { stream_id: StreamId::NONE, sequence_nr: 0, ..header };
@@ -146,7 +151,7 @@ where
         }
         if !answered {
             tracing::debug!(peer = ?from, session = header.session_id, "message for an unknown session dropped");
-            self.drop_datagram();
+            self.drop_datagram(DropReason::UnknownClient);
         }
     }
 
@@ -168,6 +173,7 @@ where
                 status
             }
             Err(why) => {
+                stats::bump(&mut self.stats.auth_refusals);
                 if let Some(held_back) = self.drop_log.admit(from, now) {
                     tracing::warn!(peer = ?from, client = %rep.client_key, held_back, "CREATE_CLIENT refused (STATUS_ERR_DENIED): {why}");
                 }
@@ -195,7 +201,7 @@ where
         // An endpoint speaks for one client: a new key from it replaces the old client.
         if let Some(ep) = from {
             if let Some(old) = self.by_endpoint.get(&ep).copied().filter(|old| *old != key) {
-                self.remove_client(old);
+                self.remove_client(old, RemoveReason::Replaced);
             }
         }
         if key == ClientKey::INVALID {
@@ -229,7 +235,7 @@ where
             }
             existing => {
                 if existing.is_some() {
-                    self.remove_client(key);
+                    self.remove_client(key, RemoveReason::Replaced);
                 } else if self.clients.len() >= self.config.max_clients && !self.evict_dead_client(now) {
                     return StatusCode::ERR_RESOURCES;
                 }
@@ -242,6 +248,7 @@ where
                 }
                 client.start_watch(&self.config, now, from.is_none());
                 self.clients.insert(key, Box::new(client));
+                stats::bump(&mut self.stats.clients_created);
                 self.schedule(key);
             }
         }
@@ -265,6 +272,6 @@ where
         let dead_time = self.config.client_dead_time;
         let victim =
             self.clients.values().filter(|c| c.is_dead(now, dead_time)).min_by_key(|c| c.last_heard).map(|c| c.key);
-        victim.is_some_and(|k| self.remove_client(k))
+        victim.is_some_and(|k| self.remove_client(k, RemoveReason::Evicted))
     }
 }

@@ -12,6 +12,7 @@ use xrce_proto::{BaseObjectRequest, ClientKey, MessageHeader, ObjectId};
 
 use super::connection::{Connection, Ctx};
 use super::outbox::Control;
+use super::stats::{add, bump, ClientCounters};
 use crate::middleware::{EntityRef, Middleware, SampleRef};
 
 /// Samples one read task may send per turn on a best-effort stream (reliable streams are bounded by their
@@ -60,6 +61,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 let mut sub = None;
                 let pool = &mut *ctx.pool;
                 let key = self.key;
+                let counters = &mut self.counters;
                 let taken = ctx.middleware.poll_sample(entity, &mut |sample| {
                     let size = sample.wire_size();
                     if task.ready(size, now).is_err() {
@@ -72,6 +74,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                         pool.put(buf);
                     }
                     task.sent(size, now);
+                    count_out(counters, size);
                     true
                 });
                 if let Some(sub) = sub {
@@ -101,8 +104,8 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         let pack = self.pack_data && best_effort;
         let (key, mtu, header) = (self.key, self.mtu, self.header(stream, 0));
         let task = self.reads.get_mut(&entity.id)?;
-        let (outbox, be_out, pool, stats) =
-            (&mut self.outbox, &mut self.streams.be_out, &mut *ctx.pool, &mut *ctx.stats);
+        let (outbox, be_out, pool, stats, counters) =
+            (&mut self.outbox, &mut self.streams.be_out, &mut *ctx.pool, &mut *ctx.stats, &mut self.counters);
         let mut new_message = None;
         let taken = ctx.middleware.poll_sample(entity, &mut |sample| {
             let size = sample.wire_size();
@@ -110,6 +113,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 return false;
             }
             task.sent(size, now);
+            count_out(counters, size);
             let sub_len = DataSubmessage::data(request, sample.body(request.object_id)).encoded_len();
             if let Some(last) = outbox.open_message(stream.0).filter(|_| pack) {
                 let (len, at) = (last.len(), submessage_offset(last.len()));
@@ -148,6 +152,12 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
         taken
     }
+}
+
+/// Counts a sample of `size` bytes taken for the client.
+fn count_out(counters: &mut ClientCounters, size: usize) {
+    bump(&mut counters.samples_out);
+    add(&mut counters.bytes_out, size);
 }
 
 /// Appends a sample as one DATA submessage (spec §6.8), header included, to `buf`, written in place; false

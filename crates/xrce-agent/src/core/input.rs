@@ -19,6 +19,7 @@ use super::connection::{Connection, Ctx};
 use super::outbox::Control;
 use super::read::{ReadRequest, ReadTask};
 use super::session::{Resume, Unpinned};
+use super::stats::{self, DropReason};
 use super::stream::{InAction, ReliableIn};
 use crate::middleware::{EntityRef, Middleware, WriteOutcome};
 
@@ -74,14 +75,14 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                     if let Some(held_back) = ctx.drop_log.admit(from, now) {
                         tracing::warn!(peer = ?from, client = %self.key, held_back, "dropping message: too many streams");
                     }
-                    ctx.stats.datagrams_dropped = ctx.stats.datagrams_dropped.saturating_add(1);
+                    self.drop_datagram(ctx, DropReason::TooManyStreams);
                     return;
                 }
                 if self.streams.be_in.get_or_insert_with(stream.0, Default::default).accept(header.sequence_nr) {
                     self.process_unreliable(ctx, bytes, stream, now);
                 } else {
                     tracing::trace!(client = %self.key, seq = header.sequence_nr, "best-effort: old message dropped");
-                    ctx.stats.datagrams_dropped = ctx.stats.datagrams_dropped.saturating_add(1);
+                    self.drop_datagram(ctx, DropReason::OutOfOrder);
                 }
             }
             StreamKind::Reliable => self.process_reliable(ctx, from, header, bytes, now),
@@ -113,7 +114,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             if let Some(held_back) = ctx.drop_log.admit(from, now) {
                 tracing::warn!(peer = ?from, client = %self.key, held_back, "dropping message: too many streams");
             }
-            ctx.stats.datagrams_dropped = ctx.stats.datagrams_dropped.saturating_add(1);
+            self.drop_datagram(ctx, DropReason::TooManyStreams);
             return;
         }
         let room = ctx.config.max_buffered_bytes_per_client.saturating_sub(self.streams.buffered());
@@ -139,7 +140,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 }
             }
             InAction::Stored => {}
-            InAction::Dropped => ctx.stats.datagrams_dropped = ctx.stats.datagrams_dropped.saturating_add(1),
+            InAction::Dropped => self.drop_datagram(ctx, DropReason::OutOfOrder),
         }
         self.owe_acknack(stream);
     }
@@ -477,11 +478,16 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             }
         };
         match result {
-            Ok(WriteOutcome::Accepted) => ctx.writes = ctx.writes.saturating_add(1),
+            Ok(WriteOutcome::Accepted) => {
+                ctx.writes = ctx.writes.saturating_add(1);
+                stats::bump(&mut self.counters.samples_in);
+                stats::add(&mut self.counters.bytes_in, data.data.len());
+            }
             Ok(WriteOutcome::WouldBlock) if stream.is_reliable() => return Flow::Blocked,
             Ok(WriteOutcome::WouldBlock) => {
                 tracing::debug!(client = %self.key, %id, "middleware full: best-effort sample dropped");
-                ctx.stats.samples_dropped_in = ctx.stats.samples_dropped_in.saturating_add(1);
+                stats::bump(&mut ctx.stats.samples_dropped_in);
+                stats::bump(&mut self.counters.samples_dropped_in);
             }
             Err(e) => tracing::debug!(client = %self.key, %id, "write failed: {e}"),
         }

@@ -25,12 +25,16 @@ mod outbox;
 mod probe;
 mod read;
 mod session;
+mod snapshot;
+mod stats;
 mod stream;
 mod timer;
 mod vecmap;
 
 #[cfg(test)]
 mod ghost_tests;
+#[cfg(test)]
+mod snapshot_tests;
 #[cfg(test)]
 mod tests;
 
@@ -51,6 +55,8 @@ pub use config::{
     DEFAULT_MAX_LIVELINESS_PROBES, DEFAULT_RELIABLE_WINDOW, DEFAULT_SUSPECT_GRACE,
 };
 use connection::{Connection, Ctx, Liveness};
+pub use snapshot::{AgentSnapshot, ClientSnapshot, EntityCounts, SnapshotBoard, StreamSnapshot};
+pub use stats::{ClientCounters, CoreStats, DatagramDrops, DropReason, RemoveReason};
 
 use crate::bufpool::BufPool;
 use crate::middleware::Middleware;
@@ -68,27 +74,6 @@ pub struct Transmit<E> {
     pub to: E,
     /// One complete XRCE message.
     pub data: Vec<u8>,
-}
-
-/// Counters for diagnostics; all saturate.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct CoreStats {
-    /// Datagrams handed to the core.
-    pub datagrams_in: u64,
-    /// Datagrams dropped whole (undecodable header, unknown client, out-of-window, ...).
-    pub datagrams_dropped: u64,
-    /// Submessages that failed to decode.
-    pub decode_errors: u64,
-    /// Messages queued for sending.
-    pub messages_out: u64,
-    /// Outgoing messages dropped (outbox full, too large for the MTU on a best-effort stream).
-    pub messages_dropped_out: u64,
-    /// Times the shell polled the middleware after its waker fired ([`AgentCore::poll_middleware`]).
-    pub middleware_polls: u64,
-    /// Tail-loss probes sent: HEARTBEATs ahead of the period.
-    pub tail_probes: u64,
-    /// Samples from best-effort streams the middleware could not take (a full DDS history), dropped.
-    pub samples_dropped_in: u64,
 }
 
 /// The context a connection runs in, borrowed field by field from the endpoint `$core` (so the client table
@@ -142,6 +127,12 @@ pub struct AgentCore<E, M> {
     auth: auth::Gate<E>,
     /// The clients each endpoint created ([`liveness`]).
     created_from: liveness::CreatedFrom<E>,
+    /// The transport's name in snapshots ([`Self::set_transport_name`]).
+    transport_name: &'static str,
+    /// A client's own transport in snapshots, from its endpoint ([`Self::set_endpoint_transport`]).
+    endpoint_transport: Option<fn(&E) -> &'static str>,
+    /// Where snapshots are published, and how often ([`Self::publish_snapshots`]).
+    publisher: Option<snapshot::Publisher>,
 }
 
 impl<E: Debug, M> Debug for AgentCore<E, M> {
@@ -180,7 +171,21 @@ where
             stats: CoreStats::default(),
             auth: auth::Gate::default(),
             created_from: liveness::CreatedFrom::default(),
+            transport_name: "custom",
+            endpoint_transport: None,
+            publisher: None,
         }
+    }
+
+    /// Names the transport its clients use in snapshots (`udp4`, `tcp4`, `serial`, ...).
+    pub fn set_transport_name(&mut self, name: &'static str) {
+        self.transport_name = name;
+    }
+
+    /// Names each client's transport in snapshots from its endpoint, for a core serving several transports
+    /// at once; without it every client has the core's ([`Self::set_transport_name`]).
+    pub fn set_endpoint_transport(&mut self, name_of: fn(&E) -> &'static str) {
+        self.endpoint_transport = Some(name_of);
     }
 
     /// Ties `now` to a wall-clock time (duration since the Unix epoch) for TIMESTAMP_REPLY. Without it the
@@ -255,10 +260,8 @@ where
     /// [`Self::after_send`] counts as due).
     pub fn poll_timeout(&self) -> Option<Instant> {
         let timer = self.timers.peek().map(|Reverse((due, _))| *due);
-        match (timer, self.middleware.flush_due()) {
-            (Some(t), Some(f)) => Some(t.min(f)),
-            (t, f) => t.or(f),
-        }
+        let publish = self.publisher.as_ref().map(|p| p.next);
+        [timer, self.middleware.flush_due(), publish].into_iter().flatten().min()
     }
 
     /// Call once the messages taken from [`Self::poll_transmit`] are sent: the middleware does the work it
@@ -299,7 +302,7 @@ where
             let retry = ctx.retry;
             if liveness == Liveness::Remove {
                 tracing::info!(client = %key, "client dead, removing");
-                self.remove_client(key);
+                self.remove_client(key, RemoveReason::Timeout);
                 continue;
             }
             self.after_turn(key, retry);
@@ -311,6 +314,7 @@ where
         self.middleware.poll(now);
         self.unserved_writes = Some(self.unserved_writes.unwrap_or(0));
         self.serve_readers(now);
+        self.publish_due(now);
     }
 
     /// Polls the readers of active read tasks; call it when an asynchronous middleware's waker fired.
@@ -431,7 +435,7 @@ where
 
     /// Deletes a client and all its entities.
     pub fn delete_client(&mut self, key: ClientKey) -> StatusCode {
-        if self.remove_client(key) {
+        if self.remove_client(key, RemoveReason::Deleted) {
             StatusCode::OK
         } else {
             StatusCode::ERR_UNKNOWN_REFERENCE
@@ -441,7 +445,7 @@ where
     /// Deletes every client (eProsima's `Agent::reset`).
     pub fn reset(&mut self) {
         for key in self.client_keys() {
-            self.remove_client(key);
+            self.remove_client(key, RemoveReason::Deleted);
         }
         self.stateless.clear();
         self.turns.clear();
@@ -578,8 +582,10 @@ where
 
     /// Removes a client: its entities (children first, so middleware callbacks see each), its read tasks, its
     /// endpoint binding.
-    fn remove_client(&mut self, key: ClientKey) -> bool {
+    fn remove_client(&mut self, key: ClientKey, reason: RemoveReason) -> bool {
         let Some(mut client) = self.clients.remove(&key) else { return false };
+        self.stats.client_removed(reason);
+        self.stats.removed_clients.absorb(&client.counters_with_streams());
         client.release(&mut self.middleware);
         if let Some(ep) = client.endpoint {
             if self.by_endpoint.get(&ep) == Some(&key) {
@@ -588,7 +594,7 @@ where
         }
         self.reading.retain(|k| *k != key);
         self.blocked.retain(|k| *k != key);
-        tracing::info!(client = %key, "client removed");
+        tracing::info!(client = %key, reason = reason.name(), "client removed");
         true
     }
 }

@@ -38,6 +38,11 @@ impl ObjectTable {
         self.objects.len()
     }
 
+    /// Every object's id.
+    pub fn ids(&self) -> impl Iterator<Item = ObjectId> + '_ {
+        self.objects.keys().copied()
+    }
+
     /// Whether `id` exists.
     pub fn contains(&self, id: ObjectId) -> bool {
         self.objects.contains_key(&id)

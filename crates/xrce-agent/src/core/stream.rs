@@ -14,17 +14,20 @@ use xrce_proto::view::FragmentHead;
 use xrce_proto::MessageHeader;
 
 use super::probe::{engine_duration, from_engine, to_engine};
+use super::stats::bump;
 pub use crate::bufpool::BufPool;
 
 /// Best-effort input: newer messages only (spec §9.2).
 #[derive(Debug, Clone)]
 pub struct BestEffortIn {
     last: SeqNum,
+    /// Messages accepted.
+    pub messages: u64,
 }
 
 impl Default for BestEffortIn {
     fn default() -> Self {
-        Self { last: SeqNum::INIT }
+        Self { last: SeqNum::INIT, messages: 0 }
     }
 }
 
@@ -33,6 +36,7 @@ impl BestEffortIn {
     pub fn accept(&mut self, seq: u16) -> bool {
         if self.last.lt(SeqNum(seq)) {
             self.last = SeqNum(seq);
+            bump(&mut self.messages);
             true
         } else {
             false
@@ -77,12 +81,25 @@ pub struct ReliableIn {
     stored: VecDeque<Option<Vec<u8>>>,
     /// The message being joined from FRAGMENTs (boxed: rarely there).
     reassembly: Option<Box<(Reassembler, Joined)>>,
+    /// Messages taken in the window (processed or stored for later).
+    pub messages: u64,
 }
 
 impl ReliableIn {
     /// An empty stream expecting sequence number 0.
     pub fn new(window: u16) -> Self {
-        Self { window: InputWindow::new(), depth: window.clamp(1, 16), stored: VecDeque::new(), reassembly: None }
+        Self {
+            window: InputWindow::new(),
+            depth: window.clamp(1, 16),
+            stored: VecDeque::new(),
+            reassembly: None,
+            messages: 0,
+        }
+    }
+
+    /// Messages stored ahead of a gap, and the window's size.
+    pub fn window_use(&self) -> (usize, u16) {
+        (self.stored.iter().flatten().count(), self.depth)
     }
 
     /// Bytes held (stored messages and partial reassembly), for the per-client bound.
@@ -103,6 +120,7 @@ impl ReliableIn {
         }
         let next = self.window.next();
         if seq == next && !self.is_stored(next) {
+            bump(&mut self.messages);
             return InAction::Process;
         }
         let index = usize::from(next.distance(seq));
@@ -112,6 +130,7 @@ impl ReliableIn {
         match self.stored.get_mut(index) {
             Some(slot @ None) if message.len() <= room => {
                 *slot = Some(message.to_vec());
+                bump(&mut self.messages);
                 InAction::Stored
             }
             Some(Some(_)) => InAction::Stored,
@@ -203,11 +222,13 @@ impl ReliableIn {
 #[derive(Debug, Clone)]
 pub struct BestEffortOut {
     last: SeqNum,
+    /// Messages numbered for sending.
+    pub messages: u64,
 }
 
 impl Default for BestEffortOut {
     fn default() -> Self {
-        Self { last: SeqNum::INIT }
+        Self { last: SeqNum::INIT, messages: 0 }
     }
 }
 
@@ -215,6 +236,7 @@ impl BestEffortOut {
     /// Sequence number for the next message.
     pub fn next_seq(&mut self) -> u16 {
         self.last = self.last.next();
+        bump(&mut self.messages);
         self.last.0
     }
 }
@@ -284,6 +306,10 @@ pub struct ReliableOut {
     watch: Option<(u16, std::time::Instant)>,
     /// The latest time seen, for messages sent without one.
     clock: reliable::Instant,
+    /// New messages built (retransmissions not included).
+    pub messages: u64,
+    /// Messages sent again (NACKed, or probed by a HEARTBEAT that went unanswered).
+    pub retransmissions: u64,
 }
 
 impl ReliableOut {
@@ -301,6 +327,8 @@ impl ReliableOut {
             max_pending,
             watch: None,
             clock: reliable::Instant(0),
+            messages: 0,
+            retransmissions: 0,
         }
     }
 
@@ -312,6 +340,11 @@ impl ReliableOut {
     /// Messages that can still be queued.
     pub fn room(&self) -> usize {
         self.max_pending.saturating_sub(self.pending_msgs)
+    }
+
+    /// Messages in flight (unacknowledged), and the window's size.
+    pub fn window_use(&self) -> (usize, u16) {
+        (self.in_flight.len(), self.window)
     }
 
     /// Whether another message may go in flight.
@@ -393,12 +426,18 @@ impl ReliableOut {
         self.clock = to_engine(now);
         let clock = self.clock;
         let (sender, mut log) = self.log();
+        let mut resent = false;
         while let Some(seq) = sender.next_retransmission(&mut log, clock) {
             if let Some(f) = log.msgs.get(usize::from(log.first.distance(seq))) {
                 buf.clear();
                 buf.extend_from_slice(&f.msg);
-                return true;
+                resent = true;
+                break;
             }
+        }
+        if resent {
+            bump(&mut self.retransmissions);
+            return true;
         }
         if self.in_flight.len() >= usize::from(self.window) {
             return false;
@@ -452,6 +491,7 @@ impl ReliableOut {
         }
         let msg = pool.copy_of(buf);
         self.in_flight.push_back(Flight { msg, sent: clock, resent: false });
+        bump(&mut self.messages);
         let (sender, mut log) = self.log();
         sender.on_sent(&mut log, seq, clock);
         true

@@ -165,4 +165,13 @@ impl<M: Middleware> Middleware for WithCallbacks<M> {
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
         self.inner.set_reader_reliable(reader, reliable);
     }
+    fn stats(&self) -> super::MiddlewareStats {
+        self.inner.stats()
+    }
+    fn client_name(&self, client: xrce_proto::ClientKey) -> Option<String> {
+        self.inner.client_name(client)
+    }
+    fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, now: Instant) {
+        self.inner.on_snapshot(snapshot, now);
+    }
 }

@@ -273,6 +273,12 @@ impl Ced {
         self.forced_drops
     }
 
+    /// Samples of topic `slot` its slowest reliable reader has not taken, if it has one.
+    fn backlog(&self, slot: usize) -> Option<u64> {
+        let pin = self.pin(slot)?;
+        Some(self.topics.get(slot).map_or(0, |r| r.next_seq).saturating_sub(pin))
+    }
+
     /// The oldest sequence number a pinning (reliable) reader of the topic in `slot` has not taken.
     fn pin(&self, slot: usize) -> Option<u64> {
         self.topics.get(slot)?.pinned.iter().map(|(_, cursor)| *cursor).min()
@@ -539,10 +545,23 @@ impl Middleware for Ced {
 
     fn write_credit(&mut self, writer: EntityRef, _now: Instant) -> u32 {
         let Some(&Entity::Writer { slot, .. }) = self.entities.get(&writer) else { return u32::MAX };
-        let Some(pin) = self.pin(slot) else { return u32::MAX };
-        let next = self.topics.get(slot).map_or(0, |r| r.next_seq);
-        let backlog = next.saturating_sub(pin);
+        let Some(backlog) = self.backlog(slot) else { return u32::MAX };
         u32::try_from((RELIABLE_BACKLOG as u64).saturating_sub(backlog)).unwrap_or(u32::MAX)
+    }
+
+    fn stats(&self) -> super::MiddlewareStats {
+        let mut stats = super::MiddlewareStats::default();
+        for entity in self.entities.values() {
+            match entity {
+                Entity::Participant { .. } => stats.participants += 1,
+                Entity::Topic { .. } => stats.topics += 1,
+                Entity::Writer { slot, .. } if self.backlog(*slot).is_some_and(|b| b >= RELIABLE_BACKLOG as u64) => {
+                    stats.writers_without_credit += 1;
+                }
+                _ => {}
+            }
+        }
+        stats
     }
 
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {

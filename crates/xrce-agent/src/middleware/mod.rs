@@ -14,6 +14,7 @@ pub mod callbacks;
 pub mod ced;
 pub mod dds;
 pub mod describe;
+pub mod diagnostics;
 pub mod profiles;
 pub mod ros_graph;
 
@@ -327,6 +328,35 @@ pub trait Middleware {
     /// effort / its client stopped acknowledging (`false`): what a reliable reader has not taken should be
     /// kept, and counts against the credit of its topic's writers ([`Self::write_credit`]).
     fn set_reader_reliable(&mut self, _reader: EntityRef, _reliable: bool) {}
+
+    /// Its state for [`AgentCore::snapshot`](crate::core::AgentCore::snapshot); read once per snapshot, not
+    /// per sample. Default: nothing known (zeros).
+    fn stats(&self) -> MiddlewareStats {
+        MiddlewareStats::default()
+    }
+
+    /// The name of `client`'s named participant (its ROS 2 node, for micro-ROS), if the middleware keeps
+    /// one; read once per snapshot. Default: none.
+    fn client_name(&self, _client: ClientKey) -> Option<String> {
+        None
+    }
+
+    /// Sees each snapshot the core publishes ([`AgentCore::publish_snapshots`](crate::core::AgentCore::publish_snapshots)),
+    /// on the loop's thread: the DDS middleware writes ROS 2 `/diagnostics` from it. Default: nothing.
+    fn on_snapshot(&mut self, _snapshot: &crate::core::AgentSnapshot, _now: Instant) {}
+}
+
+/// A middleware's state in a snapshot: what holds samples back, and what it created in DDS.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MiddlewareStats {
+    /// Writers whose [`Middleware::write_credit`] is 0 now (their clients' reliable input is held).
+    pub writers_without_credit: u64,
+    /// Samples held at a new DDS writer's first-contact gate (until its readers are matched).
+    pub samples_at_gate: u64,
+    /// DDS participants (or CED's per-client participants).
+    pub participants: u64,
+    /// Topics.
+    pub topics: u64,
 }
 
 impl<M: Middleware + ?Sized> Middleware for Box<M> {
@@ -389,6 +419,15 @@ impl<M: Middleware + ?Sized> Middleware for Box<M> {
     }
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {
         (**self).set_reader_reliable(reader, reliable);
+    }
+    fn stats(&self) -> MiddlewareStats {
+        (**self).stats()
+    }
+    fn client_name(&self, client: ClientKey) -> Option<String> {
+        (**self).client_name(client)
+    }
+    fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, now: Instant) {
+        (**self).on_snapshot(snapshot, now);
     }
 }
 
@@ -462,7 +501,8 @@ impl MiddlewareKind {
                     dds::Dds::with_config(profiles, config)
                         .with_ros_graph(ros_graph)
                         .with_eager_participant(options.eager_participant)
-                        .with_shared_participants(options.share_participants),
+                        .with_shared_participants(options.share_participants)
+                        .with_ros_diagnostics(options.ros_diagnostics),
                 ))
             }
         }
@@ -497,6 +537,8 @@ pub struct DdsOptions {
     /// Shared memory beside UDPv4 for the Fast DDS participants (`--dds-shm`); `None`: this build's default
     /// (on when Fast DDS came from a ROS 2 installation, whose nodes share it).
     pub shared_memory: Option<bool>,
+    /// Write ROS 2 `/diagnostics` from the snapshots the core publishes (`--ros-diagnostics`).
+    pub ros_diagnostics: bool,
 }
 
 #[cfg(test)]

@@ -82,6 +82,22 @@ impl AnyEndpoint {
             _ => None,
         }
     }
+
+    /// The name of the transport the peer is on, as the command line's subcommands name them (`udp4`,
+    /// `tcp6`, `serial`, `canfd`, `custom`): a client's own transport in snapshots and metrics.
+    pub fn transport_name(&self) -> &'static str {
+        match self.peer {
+            Peer::Udp(a) if a.is_ipv4() => "udp4",
+            Peer::Udp(_) => "udp6",
+            Peer::Tcp(c) if c.peer.is_ipv4() => "tcp4",
+            Peer::Tcp(_) => "tcp6",
+            #[cfg(target_os = "linux")]
+            Peer::Serial(_) => "serial",
+            #[cfg(target_os = "linux")]
+            Peer::Can(_) => "canfd",
+            Peer::Custom(_) => "custom",
+        }
+    }
 }
 
 /// The shells' endpoint types, as [`Peer`]s and back.
@@ -519,5 +535,15 @@ mod tests {
         served.queue(Peer::Tcp(ConnId { number: 1, peer: ([127, 0, 0, 1], 3).into() }), vec![4], &mut spent);
         served.send(0, &mut spent);
         assert_eq!(spent.buffers.len(), 2, "the message of another transport's kind and the sent one");
+    }
+
+    #[test]
+    fn an_endpoint_names_its_transport_by_kind_and_address_family() {
+        let on = |peer| AnyEndpoint { transport: 3, peer }.transport_name();
+        let v6: SocketAddr = "[::1]:7".parse().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(on(Peer::Udp(([127, 0, 0, 1], 7).into())), "udp4");
+        assert_eq!(on(Peer::Udp(v6)), "udp6");
+        assert_eq!(on(Peer::Tcp(ConnId { number: 1, peer: ([127, 0, 0, 1], 7).into() })), "tcp4");
+        assert_eq!(on(Peer::Tcp(ConnId { number: 1, peer: v6 })), "tcp6");
     }
 }

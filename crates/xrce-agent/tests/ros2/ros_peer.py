@@ -10,6 +10,7 @@ Modes (run `ros_peer.py MODE --help`):
   serve  serve a std_srvs/srv/SetBool service (success = data, message = "ros <data> <count>")
   call   wait for a SetBool service, call it N times, time each round trip
   graph  poll get_node_names_and_namespaces()/get_topic_names_and_types() until the expected nodes appear
+  diag   subscribe to /diagnostics (diagnostic_msgs/DiagnosticArray); print each array's statuses
   multi  several subscriptions, publishers and service clients at once (a boot storm's ROS side)
   bench-sub  latency of stamped std_msgs/UInt8MultiArray samples (xrce-bench ros --direction to-ros)
   bench-pub  publish stamped std_msgs/UInt8MultiArray samples at a rate (xrce-bench ros --direction from-ros)
@@ -276,6 +277,22 @@ def run_graph(node, args):
     emit("graph", nodes=nodes, topics=topics, complete=complete(), after_ms=(time.monotonic() - t0) * 1e3)
 
 
+def run_diag(node, args):
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    arrays = []
+
+    def on_array(msg):
+        statuses = [[s.level[0] if isinstance(s.level, bytes) else int(s.level), s.name, s.message,
+                     {kv.key: kv.value for kv in s.values}] for s in msg.status]
+        arrays.append(statuses)
+        emit("diagnostics", statuses=statuses, n=len(arrays))
+
+    node.create_subscription(DiagnosticArray, "/diagnostics", on_array, 10)
+    emit("ready", node=node.get_name(), topic="/diagnostics")
+    spin_until(node, lambda: args.count and len(arrays) >= args.count, args.timeout)
+
+
 WARMUP = 1 << 63
 
 
@@ -528,6 +545,10 @@ def main():
     p.add_argument("--endpoint-period", type=float, default=0.5, help="seconds between endpoints")
     p.add_argument("--endpoints", type=int, default=2, help="publishers (and as many subscriptions) held")
 
+    p = sub.add_parser("diag", help="print /diagnostics arrays")
+    p.add_argument("--count", type=int, default=0, help="stop after this many arrays (0: run until timeout)")
+    p.add_argument("--timeout", type=float, default=30.0)
+
     p = sub.add_parser("graph", help="print the ROS graph")
     p.add_argument("--expect", action="append", default=[], help="node name to wait for (repeatable)")
     p.add_argument("--timeout", type=float, default=10.0)
@@ -537,7 +558,8 @@ def main():
     node = rclpy.create_node(args.node)
     try:
         {"sub": run_sub, "pub": run_pub, "serve": run_serve, "call": run_call, "graph": run_graph,
-         "multi": run_multi, "bench-sub": run_bench_sub, "bench-pub": run_bench_pub, "churn": run_churn}[args.mode](
+         "multi": run_multi, "diag": run_diag, "bench-sub": run_bench_sub, "bench-pub": run_bench_pub,
+         "churn": run_churn}[args.mode](
             node, args
         )
     except KeyboardInterrupt:

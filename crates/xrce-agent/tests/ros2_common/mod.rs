@@ -33,6 +33,11 @@ pub fn start_agent(port: u16) -> AgentProcess {
     AgentProcess::start_bin_env(&agent_bin(), port, &[], &[], &[])
 }
 
+/// The agent under test with these extra arguments.
+pub fn start_agent_args(port: u16, extra: &[&str]) -> AgentProcess {
+    AgentProcess::start_bin_env(&agent_bin(), port, &[], &[], extra)
+}
+
 /// The agent under test with these environment variables, and none of [`DISCOVERY_ENV`] but those named.
 pub fn start_agent_env(port: u16, env: &[(&str, &str)]) -> AgentProcess {
     AgentProcess::start_bin_env(&agent_bin(), port, &DISCOVERY_ENV, env, &[])

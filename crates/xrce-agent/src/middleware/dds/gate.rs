@@ -102,6 +102,11 @@ pub(super) struct HeldSamples {
 }
 
 impl HeldSamples {
+    /// Samples held.
+    pub(super) fn len(&self) -> usize {
+        self.samples.len()
+    }
+
     /// Keeps a sample written at `now` (also once the gate is open, while older ones wait: order is kept).
     pub(super) fn push(&mut self, now: Instant, data: &[u8]) {
         while !self.samples.is_empty()
@@ -139,11 +144,6 @@ impl HeldSamples {
 
     pub(super) fn is_empty(&self) -> bool {
         self.samples.is_empty()
-    }
-
-    #[cfg(test)]
-    pub(super) fn len(&self) -> usize {
-        self.samples.len()
     }
 
     /// Samples dropped because the bounds were reached.

@@ -113,7 +113,9 @@ use super::{
 };
 use crate::profile::{self};
 
+mod diagnostics;
 mod gate;
+mod observe;
 mod spec;
 
 use gate::{GateTimer, HeldSamples};
@@ -417,6 +419,10 @@ pub struct Dds {
     /// Per DDS writer with samples in `after_send`: the readers they went ahead to. A later sample goes ahead
     /// only to these (a reader that got an earlier one through DDS must get the later one after it).
     ahead_to: HashMap<[u8; 16], Vec<EntityRef>>,
+    /// ROS 2 `/diagnostics` (`--ros-diagnostics`), when on.
+    diagnostics: Option<diagnostics::RosDiagnostics>,
+    /// The name of each client's named participant (the last one created), for snapshots.
+    names: HashMap<ClientKey, String>,
 }
 
 impl Drop for Dds {
@@ -510,6 +516,8 @@ impl Dds {
             after_send: VecDeque::new(),
             after_send_since: None,
             ahead_to: HashMap::new(),
+            diagnostics: None,
+            names: HashMap::new(),
         }
     }
 
@@ -524,6 +532,12 @@ impl Dds {
     /// `xrce-rs`) instead of one DDS participant per XRCE participant name (see the module documentation).
     pub fn with_shared_participants(mut self, share: bool) -> Self {
         self.share_participants = share;
+        self
+    }
+
+    /// Writes ROS 2 `/diagnostics` from each snapshot the core publishes (`--ros-diagnostics`).
+    pub fn with_ros_diagnostics(mut self, on: bool) -> Self {
+        self.diagnostics = on.then(diagnostics::RosDiagnostics::default);
         self
     }
 
@@ -1078,6 +1092,9 @@ impl Middleware for Dds {
             _ => None,
         };
         self.graph_link(creation.entity, name);
+        if let Some(name) = name {
+            self.names.insert(creation.entity.client, name.to_owned());
+        }
         Ok(())
     }
 
@@ -1106,6 +1123,7 @@ impl Middleware for Dds {
         if !self.owned.forget(client) {
             return;
         }
+        self.names.remove(&client);
         self.pinned.retain(|e| e.client != client);
         self.gates.retain(|e, _| e.client != client);
         self.held.retain(|e, _| e.client != client);
@@ -1278,6 +1296,18 @@ impl Middleware for Dds {
         } else {
             self.pinned.remove(&reader);
         }
+    }
+
+    fn stats(&self) -> super::MiddlewareStats {
+        self.observed_stats()
+    }
+
+    fn client_name(&self, client: ClientKey) -> Option<String> {
+        self.names.get(&client).cloned()
+    }
+
+    fn on_snapshot(&mut self, snapshot: &crate::core::AgentSnapshot, _now: Instant) {
+        self.write_diagnostics(snapshot);
     }
 }
 
