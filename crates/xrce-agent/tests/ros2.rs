@@ -831,7 +831,7 @@ fn some_array_has(lines: &[Value], want: &[(u64, &str)]) -> bool {
 #[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
 fn diagnostics_show_each_client_with_its_level() {
     const PORT: u16 = 18_971;
-    let _agent = start_agent_args(PORT, &["--client-timeout", "3"]);
+    let _agent = start_agent_args(PORT, &["--client-timeout", "3", "--ros-diagnostics", "on"]);
     let mut ros = RosPeer::start("ros_diagnostics", &["diag", "--timeout", "40"]);
     assert!(ros.wait_for("ready", Duration::from_secs(15)).is_some(), "the ROS node starts");
     let mut plan = micro_ros(PORT, 0x0007_0001, "uros_diag_alive");
