@@ -4,6 +4,7 @@
 #include "compat.hpp"
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstring>
 #include <map>
@@ -11,6 +12,7 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 using namespace xf;
@@ -146,6 +148,16 @@ struct KnownReader {
 // until none has arrived for that long (the agent passes 100 ms for reliable writers: on loopback a burst's
 // endpoints come within a few ms of each other); with 0, only until its first endpoint arrived.
 
+// A remote participant that has just started drops what reaches it before its receivers are registered (Fast
+// DDS: RTPSParticipantImpl::enable), our participant's answer to its first announcement included; it then
+// learns of us, and sends us its endpoints, only at our next periodic announcement, 3 s later (a ROS node
+// started next to a running agent: its reader unknown to the first-contact gate, its first service call 3 s
+// late). So a remote participant discovered without any endpoint of its own `kAnswerCheck` later gets our
+// announcement again (the answerer thread, answer_again_if_unheard), and once more `kAnswerRecheck` after that.
+constexpr auto kAnswerCheck = std::chrono::milliseconds(60);
+constexpr auto kAnswerRecheck = std::chrono::milliseconds(400);
+void answerer_wake();
+
 struct Discovery : public DiscoveryListener {
     using Clock = std::chrono::steady_clock;
     std::mutex m;
@@ -154,26 +166,37 @@ struct Discovery : public DiscoveryListener {
     std::map<GuidPrefix_t, Clock::time_point> latest;  // when their latest endpoint (or themselves) arrived
     std::set<GuidPrefix_t> participants;  // remote ones alive, of other processes
     std::set<GuidPrefix_t> discovered;    // every one alive, the agent's other participants included
+    // Remote participants without any endpoint yet, and when to announce ourselves to them again (see
+    // answer_again_if_unheard): the second check, once the first announcement again went unanswered too.
+    std::map<GuidPrefix_t, std::pair<Clock::time_point, bool>> unanswered;
     void participant(DomainParticipant* self, const GuidPrefix_t& p, Seen what) override {
-        std::lock_guard<std::mutex> g(m);
-        if (what == Seen::added) {
-            discovered.insert(p);
-            // The agent's other participants (same host and process bytes of the prefix) are not awaited.
-            const bool same_process = std::memcmp(p.value, self->guid().guidPrefix.value, 8) == 0;
-            if (!same_process) {
-                awaiting_endpoints.insert(p);
-                participants.insert(p);
-                latest[p] = Clock::now();
+        bool wake = false;
+        {
+            std::lock_guard<std::mutex> g(m);
+            if (what == Seen::added) {
+                discovered.insert(p);
+                // The agent's other participants (same host and process bytes of the prefix) are not awaited.
+                const bool same_process = std::memcmp(p.value, self->guid().guidPrefix.value, 8) == 0;
+                if (!same_process) {
+                    awaiting_endpoints.insert(p);
+                    participants.insert(p);
+                    latest[p] = Clock::now();
+                    unanswered[p] = {Clock::now() + kAnswerCheck, false};
+                    wake = true;
+                }
+            } else if (what == Seen::removed) {
+                awaiting_endpoints.erase(p);
+                participants.erase(p);
+                discovered.erase(p);
+                latest.erase(p);
+                unanswered.erase(p);
             }
-        } else if (what == Seen::removed) {
-            awaiting_endpoints.erase(p);
-            participants.erase(p);
-            discovered.erase(p);
-            latest.erase(p);
         }
+        if (wake) answerer_wake();
     }
     void endpoint_of(const GuidPrefix_t& p) {
         awaiting_endpoints.erase(p);
+        unanswered.erase(p);
         auto it = latest.find(p);
         if (it != latest.end()) it->second = Clock::now();
     }
@@ -237,8 +260,94 @@ struct xf_participant { DomainParticipant* p; Discovery discovery; uint32_t rean
 
 namespace {
 // The process's participants, for xf_participant_reannounce_unheard. A participant leaves it before deletion.
-std::mutex registry_m;
-std::set<xf_participant*> registry;
+// Both outlive static destruction (never freed): the answerer thread may use them while the process exits.
+std::mutex& registry_m = *new std::mutex();
+std::set<xf_participant*>& registry = *new std::set<xf_participant*>();
+
+// Makes `x` announce itself to every peer by changing its USER_DATA (Fast DDS sends a participant's DATA(p) to
+// every peer when it changes). USER_DATA then reads "xrce-rs-announce=N;", which ROS 2 ignores (it reads only
+// "enclave="). Whether Fast DDS took the change.
+bool announce_again(xf_participant* x) {
+    DomainParticipantQos q = x->p->get_qos();
+    const std::string tag = "xrce-rs-announce=" + std::to_string(++x->reannounced) + ";";
+    q.user_data().data_vec(std::vector<rtps::octet>(tag.begin(), tag.end()));
+    return ok(x->p->set_qos(q));
+}
+
+// The answerer: a thread, started with the first participant, that sleeps until a remote participant has been
+// discovered and then, while any is still unanswered (see kAnswerCheck), looks every 20 ms.
+struct Answerer {
+    std::mutex m;
+    std::condition_variable cv;
+    uint64_t wakes = 0;
+};
+Answerer& answerer = *new Answerer();
+
+// Announces each participant of the process again whose unanswered peers are due; whether any is left.
+bool answer_again_if_unheard() {
+    bool left = false;
+    std::lock_guard<std::mutex> g(registry_m);
+    for (xf_participant* x : registry) {
+        bool due = false;
+        {
+            std::lock_guard<std::mutex> d(x->discovery.m);
+            const auto now = Discovery::Clock::now();
+            auto& pending = x->discovery.unanswered;
+            for (auto it = pending.begin(); it != pending.end();) {
+                if (now < it->second.first) {
+                    ++it;
+                    continue;
+                }
+                due = true;
+                if (it->second.second) {
+                    it = pending.erase(it);
+                } else {
+                    it->second = {now + kAnswerRecheck, true};
+                    ++it;
+                }
+            }
+            left = left || !pending.empty();
+        }
+        if (due) {
+            try { announce_again(x); } catch (...) {}
+        }
+    }
+    return left;
+}
+
+void answerer_run() {
+    for (;;) {
+        uint64_t seen;
+        {
+            std::unique_lock<std::mutex> lk(answerer.m);
+            answerer.cv.wait(lk, [] { return answerer.wakes != 0; });
+            seen = answerer.wakes;
+        }
+        bool left = true;
+        while (left) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+            left = answer_again_if_unheard();
+        }
+        // Sleep again unless a participant was discovered since the last look.
+        std::lock_guard<std::mutex> lk(answerer.m);
+        if (answerer.wakes == seen) answerer.wakes = 0;
+    }
+}
+
+void answerer_start() {
+    static std::once_flag started;
+    std::call_once(started, [] { std::thread(answerer_run).detach(); });
+}
+}  // namespace
+
+namespace {
+void answerer_wake() {
+    {
+        std::lock_guard<std::mutex> lk(answerer.m);
+        ++answerer.wakes;
+    }
+    answerer.cv.notify_one();
+}
 }  // namespace
 struct xf_writer { DataWriter* w; Publisher* pub; MatchListener listener; xf_participant* owner; };
 struct xf_reader { DataReader* r; Subscriber* sub; CbListener listener; RawData scratch; };
@@ -324,6 +433,7 @@ xf_participant* xf_participant_new(const xf_participant_cfg* c) {
     h->p = DomainParticipantFactory::get_instance()->create_participant(c->domain, q, &h->discovery,
                                                                        StatusMask::none());
     if (!h->p) { delete h; return nullptr; }
+    answerer_start();
     {
         std::lock_guard<std::mutex> g(registry_m);
         registry.insert(h);
@@ -540,10 +650,7 @@ int32_t xf_participant_reannounce_unheard(xf_participant* p) {
     std::lock_guard<std::mutex> g(registry_m);
     for (xf_participant* x : registry) {
         if (x == p || x->p->get_domain_id() != domain || heard.count(x->p->guid().guidPrefix) != 0) continue;
-        DomainParticipantQos q = x->p->get_qos();
-        const std::string tag = "xrce-rs-announce=" + std::to_string(++x->reannounced) + ";";
-        q.user_data().data_vec(std::vector<rtps::octet>(tag.begin(), tag.end()));
-        if (ok(x->p->set_qos(q))) ++n;
+        if (announce_again(x)) ++n;
     }
     return n;
     XF_CATCH(-2)
