@@ -13,6 +13,7 @@ Modes (run `ros_peer.py MODE --help`):
   multi  several subscriptions, publishers and service clients at once (a boot storm's ROS side)
   bench-sub  latency of stamped std_msgs/UInt8MultiArray samples (xrce-bench ros --direction to-ros)
   bench-pub  publish stamped std_msgs/UInt8MultiArray samples at a rate (xrce-bench ros --direction from-ros)
+  churn  participants and endpoints that come and go around the agent (scripts/discovery-churn.sh)
 
 The bench modes (scripts/ros2-shm-bench.py runs them) share the layout of xrce-bench's `ros` command: `data`
 starts with the send time (time.time_ns(), u64 little endian) and the sequence number (u64, bit 63 set for
@@ -389,6 +390,65 @@ def run_bench_pub(node, args):
     emit("result", sent=sent, warmup=warm, window_s=window, achieved_rate=sent / window if window else 0.0)
 
 
+def run_churn(node, args):
+    """ROS 2 discovery traffic around the agent: every --participant-period a new participant (its own rclpy
+    context and node, with --endpoints publishers and as many subscriptions on the --topic topics, in turn)
+    replaces the previous one, and every --endpoint-period this process's first node creates a publisher or
+    a subscription and deletes its oldest once it has --endpoints. Publishers write one sample a second, so
+    the agent's readers on those topics have something to carry."""
+    topics = args.topic or ["churn"]
+    profile = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+    payload = UInt8MultiArray(data=array.array("B", bytes(64)))
+    counts = {"participants": 0, "endpoints": 0}
+
+    def endpoint(owner, i):
+        topic = topics[i % len(topics)]
+        counts["endpoints"] += 1
+        if i % 2 == 0:
+            return owner.create_publisher(UInt8MultiArray, topic, profile)
+        return owner.create_subscription(UInt8MultiArray, topic, lambda _msg: None, profile)
+
+    def spawn_participant():
+        ctx = rclpy.Context()
+        rclpy.init(context=ctx)
+        n = rclpy.create_node(f"{node.get_name()}_p{counts['participants']}", context=ctx)
+        counts["participants"] += 1
+        held = [endpoint(n, i) for i in range(2 * args.endpoints)]
+        return ctx, n, held
+
+    def drop_participant(p):
+        ctx, n, _held = p
+        n.destroy_node()
+        ctx.try_shutdown()
+
+    own = []
+    current = None
+    started = time.monotonic()
+    next_participant = next_endpoint = next_write = started
+    while rclpy.ok() and time.monotonic() - started < args.seconds:
+        now = time.monotonic()
+        if now >= next_participant:
+            if current is not None:
+                drop_participant(current)
+            current = spawn_participant()
+            next_participant = now + args.participant_period
+        if now >= next_endpoint:
+            own.append(endpoint(node, counts["endpoints"]))
+            if len(own) > args.endpoints:
+                old = own.pop(0)
+                (node.destroy_publisher if hasattr(old, "publish") else node.destroy_subscription)(old)
+            next_endpoint = now + args.endpoint_period
+        if now >= next_write:
+            for e in own + (current[2] if current else []):
+                if hasattr(e, "publish"):
+                    e.publish(payload)
+            next_write = now + 1.0
+        rclpy.spin_once(node, timeout_sec=0.05)
+    if current is not None:
+        drop_participant(current)
+    emit("result", **counts)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--node", default="ros_peer", help="node name")
@@ -461,6 +521,13 @@ def main():
     p.add_argument("--timeout", type=float, default=30.0, help="how long to wait for a subscription")
     p.add_argument("--linger", type=float, default=1.0)
 
+    p = sub.add_parser("churn", help="participants and endpoints that come and go")
+    p.add_argument("--topic", action="append", default=[], help="topic of the endpoints (repeatable, in turn)")
+    p.add_argument("--seconds", type=float, required=True)
+    p.add_argument("--participant-period", type=float, default=2.0, help="seconds between participants")
+    p.add_argument("--endpoint-period", type=float, default=0.5, help="seconds between endpoints")
+    p.add_argument("--endpoints", type=int, default=2, help="publishers (and as many subscriptions) held")
+
     p = sub.add_parser("graph", help="print the ROS graph")
     p.add_argument("--expect", action="append", default=[], help="node name to wait for (repeatable)")
     p.add_argument("--timeout", type=float, default=10.0)
@@ -470,7 +537,7 @@ def main():
     node = rclpy.create_node(args.node)
     try:
         {"sub": run_sub, "pub": run_pub, "serve": run_serve, "call": run_call, "graph": run_graph,
-         "multi": run_multi, "bench-sub": run_bench_sub, "bench-pub": run_bench_pub}[args.mode](
+         "multi": run_multi, "bench-sub": run_bench_sub, "bench-pub": run_bench_pub, "churn": run_churn}[args.mode](
             node, args
         )
     except KeyboardInterrupt:
