@@ -422,6 +422,8 @@ pub struct Dds {
     /// the domain has no participant left, and when to look whether it can be retired.
     eager_retired: bool,
     eager_check_at: Option<Instant>,
+    /// [`DEFAULT_PARTICIPANT_RETIRE_AFTER`] unless set ([`Dds::with_default_participant_retire_after`]).
+    eager_retire_after: Duration,
     /// Every XRCE participant of a domain shares the default DDS participant, whatever its name
     /// ([`Dds::with_shared_participants`]).
     share_participants: bool,
@@ -524,6 +526,7 @@ impl Dds {
             eager: None,
             eager_retired: false,
             eager_check_at: None,
+            eager_retire_after: DEFAULT_PARTICIPANT_RETIRE_AFTER,
             share_participants: false,
             named_limit: MAX_NAMED_PARTICIPANTS,
             after_send: VecDeque::new(),
@@ -561,6 +564,13 @@ impl Dds {
         self
     }
 
+    /// How long a participant created for a name must have run before the default participant created at
+    /// start is retired ([`DEFAULT_PARTICIPANT_RETIRE_AFTER`] by default; tests shorten it).
+    pub fn with_default_participant_retire_after(mut self, after: Duration) -> Self {
+        self.eager_retire_after = after;
+        self
+    }
+
     fn create_default_participant(&mut self, when: &str) {
         match self.bridge.participant(AGENT_DOMAIN, "") {
             Ok(p) => {
@@ -581,13 +591,13 @@ impl Dds {
         let settled = self
             .bridge
             .oldest_named_participant_since(AGENT_DOMAIN)
-            .is_some_and(|born| now.saturating_duration_since(born) >= DEFAULT_PARTICIPANT_RETIRE_AFTER);
+            .is_some_and(|born| now.saturating_duration_since(born) >= self.eager_retire_after);
         if settled {
             let deleting = Instant::now();
             self.eager = None;
             self.eager_retired = true;
-            let took = deleting.elapsed();
-            tracing::info!(?took, "default DDS participant retired: a participant running longer than {DEFAULT_PARTICIPANT_RETIRE_AFTER:?} knows the domain (one participant fewer in discovery)");
+            let (took, after) = (deleting.elapsed(), self.eager_retire_after);
+            tracing::info!(?took, "default DDS participant retired: a participant running longer than {after:?} knows the domain (one participant fewer in discovery)");
         }
     }
 
