@@ -78,16 +78,18 @@
 //!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
 //!   running are known before the first client arrives; once a participant created for a name has run
 //!   [`DEFAULT_PARTICIPANT_RETIRE_AFTER`] it knows as much, and the default one is retired (one participant
-//!   fewer doing discovery while ROS nodes come and go), to be created again when the domain has none left. A requester also holds its first request while no
-//!   replier has matched at all ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer
-//!   matches the readers its participant knows while it is created; but a participant created for a new
-//!   name knows nothing yet (its endpoint discovery with a ROS node takes 100–300 ms: Fast DDS' 70 ms
-//!   initial ACKNACK delay, then the peer's ~93 ms NACK response delay), so there the readers counted are
-//!   those the domain's participant running longest has discovered (the default one while it lives), and
-//!   the gate also waits while the writer's participant is still in discovery with a remote participant:
-//!   one it has discovered without any endpoint yet (a ROS node started with the client is not known to
-//!   the older participant either), or one the older participant knows and it has not discovered yet (its first milliseconds; a participant that missed a
-//!   peer's answer to its first announcement is created again by the bridge, docs/dds-engine.md, issue 20).
+//!   fewer doing discovery while ROS nodes come and go), to be created again when the domain has none
+//!   left. A requester also holds its first request while no replier has matched at all
+//!   ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer matches the readers its
+//!   participant knows while it is created; but a participant created for a new name knows nothing yet
+//!   (its endpoint discovery with a ROS node takes 100–300 ms: Fast DDS' 70 ms initial ACKNACK delay, then
+//!   the peer's ~93 ms NACK response delay), so there the readers counted are those the domain's
+//!   participant running longest has discovered (the default one while it lives), and the gate also waits
+//!   while the writer's participant is still in discovery with a remote participant: one it has discovered
+//!   without any endpoint yet (a ROS node started with the client is not known to the older participant
+//!   either), or one the older participant knows and it has not discovered yet (its first milliseconds; a
+//!   participant that missed a peer's answer to its first announcement is created again by the bridge,
+//!   docs/dds-engine.md, issue 20).
 //!   Best-effort writes (PX4) are not held by the
 //!   core: the middleware keeps them at the gate ([`HELD_AT_GATE`]) and replays them once it opens, at
 //!   twice the rate they were written (a burst would overflow a keep-last reader's history).
