@@ -16,8 +16,10 @@
 #   XRCE_BENCH      default: target/release/xrce-bench, built here
 #   CHURN_ARGS      more arguments of `ros_peer.py churn` (the idle baseline: `--participant-period 1e9
 #                   --endpoint-period 1e9`, one participant that stays)
+#   AGENT_LOG       a file: the agent's output goes there (RUST_LOG applies to our agent, as with -v)
 #   PERF_OUT        a file: `perf record -g` of the agent during the churn goes there
-# Last line: `CHURN cpu_s=… rss_start_kb=… rss_max_kb=… rss_end_kb=… participants=… endpoints=…`.
+# Last line: `CHURN cpu_s=… rss_start_kb=… rss_max_kb=… rss_end_kb=… participants=… endpoints=… switches=…`
+# (switches: the agent's context switches during the churn, from `perf stat`, when perf is installed).
 set -euo pipefail
 if [ "${1:-}" = --inside ]; then
   shift
@@ -52,6 +54,13 @@ if [ "${1:-}" = --inside ]; then
     "$XRCE_ROS_VENV/bin/python" "$PEER" --node churn churn --seconds "$secs" \
     --topic uros_a --topic uros_b --topic churn ${CHURN_ARGS:-} >"$out/churn.log" 2>&1 &
   churn=$!
+  # Context switches of the agent's threads, the dead ones included (a count the machine's load hardly
+  # moves, unlike CPU time).
+  stat_pid=
+  if command -v perf >/dev/null; then
+    perf stat -x, -e context-switches -p "$agent" -o "$out/perfstat" -- sleep "$secs" >/dev/null 2>&1 &
+    stat_pid=$!
+  fi
   if [ -n "${PERF_OUT:-}" ]; then
     perf record -q -F 499 -g -p "$agent" -o "$PERF_OUT" -- sleep "$secs" >/dev/null 2>&1 &
   fi
@@ -72,8 +81,14 @@ if [ "${1:-}" = --inside ]; then
   done | sort -k3 -rn | head -12 | awk -v hz="$ticks" '{ printf "  %-8s %-16s %6.2f\n", $1, $2, $3 / hz }'
   counts=$(grep -o '"participants": [0-9]*, "endpoints": [0-9]*' "$out/churn.log" | tr -d '",:' \
     | awk '{ print $1 "=" $2, $3 "=" $4 }')
+  switches=
+  if [ -n "$stat_pid" ]; then
+    wait "$stat_pid" || true
+    switches=" switches=$(awk -F, '/context-switches/ { print $1 }' "$out/perfstat")"
+  fi
+  [ -n "${AGENT_LOG:-}" ] && cp "$out/agent.log" "$AGENT_LOG"
   echo "CHURN cpu_s=$(awk -v a="$cpu0" -v b="$cpu1" -v hz="$ticks" 'BEGIN { printf "%.2f", (b - a) / hz }') \
-rss_start_kb=$rss0 rss_max_kb=$rss_max rss_end_kb=$rss1 $counts"
+rss_start_kb=$rss0 rss_max_kb=$rss_max rss_end_kb=$rss1 $counts$switches"
   exit 0
 fi
 

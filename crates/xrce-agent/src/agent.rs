@@ -14,7 +14,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use xrce_proto::object::Representation;
 use xrce_proto::submessage::CreationMode;
@@ -590,18 +590,20 @@ impl AgentInstance {
 
     /// Blocks until the agent is stopped, then returns the server's result.
     pub fn run(&mut self) -> Result<(), AgentError> {
-        while !self.stop.load(Ordering::Relaxed) {
-            if self.server.as_ref().is_some_and(JoinHandle::is_finished) {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        self.stop()
+        // The server checks the stop flag itself (at least every `MAX_BLOCK`), so joining it is enough: this
+        // thread sleeps without waking up to poll the flag (it did 20 times a second, issue 21).
+        let joined = self.join_server();
+        self.stop.store(true, Ordering::Relaxed);
+        joined
     }
 
     /// Stops the agent and waits for its server to finish.
     pub fn stop(&mut self) -> Result<(), AgentError> {
         self.stop.store(true, Ordering::Relaxed);
+        self.join_server()
+    }
+
+    fn join_server(&mut self) -> Result<(), AgentError> {
         match self.server.take().map(JoinHandle::join) {
             Some(Ok(result)) => Ok(result?),
             Some(Err(_)) => Err(AgentError::Io(std::io::Error::other("server thread panicked"))),

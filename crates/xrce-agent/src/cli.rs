@@ -79,7 +79,8 @@ pub struct Config {
     /// ROS 2 graph of the DDS middleware (`--ros-graph`; ours, not eProsima's).
     pub ros_graph: RosGraph,
     /// The DDS middleware creates the default domain's DDS participant at start (`--eager-participant`;
-    /// ours): discovery with running DDS applications is done before the first client arrives.
+    /// ours): discovery with running DDS applications is done before the first client arrives. It is
+    /// retired once a participant created for a name has run 10 s, and created again when none is left.
     pub eager_participant: bool,
     /// The DDS middleware gives each XRCE participant name its own DDS participant, which announces that
     /// name, as eProsima's agent does (`--participant-names`; ours). Off: all share the default one.
@@ -272,8 +273,9 @@ Arguments per transport (place them after the transport):
                                       [default: on, 16-byte GIDs (Iron and later); humble: 24-byte GIDs]
       --dds-engine <rustdds|fastdds>  DDS implementation of the dds middleware (ours)
                                       [default: $XRCE_DDS_ENGINE, else fastdds where built, else rustdds]
-      --eager-participant <on|off>    create the default DDS participant at start, before any client
-                                      (dds middleware; ours) [default: on]
+      --eager-participant <on|off>    create the default DDS participant at start, before any client;
+                                      retired once a named one has run 10 s (dds middleware; ours)
+                                      [default: on]
       --participant-names <on|off>    a DDS participant per XRCE participant name, announcing it; off:
                                       all share one, named xrce-rs (dds middleware; ours) [default: on]
       --dds-shm <on|off>              shared memory beside UDPv4 with local nodes of the same Fast DDS

@@ -161,6 +161,30 @@ impl DdsBridge {
         }
     }
 
+    /// When the longest-running live participant of domain `xrce_domain_id` created for a name was created,
+    /// if any: it then knows the domain as well as the default participant does (Fast DDS engine; RustDDS
+    /// has only the default participant, so never).
+    pub fn oldest_named_participant_since(&self, xrce_domain_id: i32) -> Option<std::time::Instant> {
+        match self.engine() {
+            Engine::RustDds => None,
+            #[cfg(feature = "fastdds")]
+            Engine::FastDds => self.fast.oldest_named_since(self.resolve_domain(xrce_domain_id).ok()?),
+            #[cfg(not(feature = "fastdds"))]
+            Engine::FastDds => None,
+        }
+    }
+
+    /// Whether some participant of domain `xrce_domain_id` is alive, whatever its name.
+    pub fn domain_has_participant(&self, xrce_domain_id: i32) -> bool {
+        match self.engine() {
+            Engine::RustDds => self.rust.existing_participant(xrce_domain_id, "").is_some(),
+            #[cfg(feature = "fastdds")]
+            Engine::FastDds => self.resolve_domain(xrce_domain_id).is_ok_and(|d| self.fast.domain_has_participant(d)),
+            #[cfg(not(feature = "fastdds"))]
+            Engine::FastDds => false,
+        }
+    }
+
     /// DDS participants alive now.
     pub fn participant_count(&self) -> usize {
         #[cfg(feature = "fastdds")]

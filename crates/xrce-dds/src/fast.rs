@@ -13,7 +13,7 @@
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock, Weak};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use xrce_fastdds_sys as sys;
 
@@ -33,10 +33,13 @@ fn create_err(what: &'static str) -> impl FnOnce(sys::Error) -> DdsError {
     move |e| DdsError::Create { what, reason: e.to_string() }
 }
 
+/// The bridge's participants by key; each participant holds it too, to find its domain's oracle.
+type ParticipantTable = WeakMap<ParticipantKey, ParticipantInner>;
+
 /// Creates and shares Fast DDS participants.
 pub(crate) struct Bridge {
     config: BridgeConfig,
-    participants: WeakMap<ParticipantKey, ParticipantInner>,
+    participants: Arc<ParticipantTable>,
 }
 
 impl std::fmt::Debug for Bridge {
@@ -47,18 +50,13 @@ impl std::fmt::Debug for Bridge {
 
 impl Bridge {
     pub(crate) fn new(config: BridgeConfig) -> Self {
-        Self { config, participants: WeakMap::default() }
+        Self { config, participants: Arc::default() }
     }
 
     pub(crate) fn participant(&self, domain_id: u16, name: &str) -> Result<Participant, DdsError> {
         let key = ParticipantKey { domain_id, name: name.to_owned() };
-        let default = match name {
-            "" => Weak::new(),
-            _ => self
-                .participants
-                .get(&ParticipantKey { domain_id, name: String::new() })
-                .map_or_else(Weak::new, |p| Arc::downgrade(&p)),
-        };
+        // Looked up before the table's lock is taken for the insert.
+        let oracle = oldest_of_domain(&self.participants, domain_id);
         let inner = self.participants.get_or_try_insert(key.clone(), || {
             let cfg = sys::ParticipantConfig {
                 domain: u32::from(domain_id),
@@ -75,7 +73,6 @@ impl Bridge {
                 },
                 peers: self.config.discovery.initial_peers().iter().map(ToString::to_string).collect(),
             };
-            let oracle = default.upgrade();
             let participant =
                 create_heard(&cfg, oracle.as_ref().map(|o| &o.participant)).map_err(create_err("participant"))?;
             tracing::info!(domain = domain_id, name = %cfg.name, "DDS participant created (Fast DDS)");
@@ -84,7 +81,8 @@ impl Bridge {
                 writers: WeakMap::default(),
                 participant,
                 key,
-                default,
+                born: Instant::now(),
+                table: Arc::clone(&self.participants),
             }))
         })?;
         Ok(Participant { inner })
@@ -97,9 +95,29 @@ impl Bridge {
     pub(crate) fn participant_count(&self) -> usize {
         self.participants.live()
     }
+
+    /// When the longest-running live participant of `domain_id` with a name was created, if any.
+    pub(crate) fn oldest_named_since(&self, domain_id: u16) -> Option<Instant> {
+        let named = self.participants.live_where(|k| k.domain_id == domain_id && !k.name.is_empty());
+        named.iter().map(|p| p.born).min()
+    }
+
+    /// Whether some participant of `domain_id` is alive.
+    pub(crate) fn domain_has_participant(&self, domain_id: u16) -> bool {
+        !self.participants.live_where(|k| k.domain_id == domain_id).is_empty()
+    }
 }
 
-/// Longest a new participant is given to discover the participants its domain's default participant knows
+/// The live participant of `domain_id` that has run longest: it knows the most of the domain (remote
+/// participants and readers), so a new participant's discovery and its writers' first-contact gates are
+/// checked against it. The default participant when it has run longest (created at start with
+/// `--eager-participant`), else the oldest named one (the agent retires the default participant once a named
+/// one has run a while).
+fn oldest_of_domain(table: &ParticipantTable, domain_id: u16) -> Option<Arc<ParticipantInner>> {
+    table.live_where(|k| k.domain_id == domain_id).into_iter().min_by_key(|p| p.born)
+}
+
+/// Longest a new participant is given to discover the participants its domain's oracle knows
 /// (they answer its first announcement within 1–6 ms on loopback, with 1 to 11 peers) before it is taken
 /// for one that missed an answer ([`create_heard`]).
 const ANSWER_WAIT: Duration = Duration::from_millis(30);
@@ -113,8 +131,8 @@ const REANNOUNCE_AFTER: Duration = Duration::from_millis(8);
 /// participants alive: `discovery_race` example of xrce-fastdds-sys), so p⁵ ≤ 0.3 %.
 const CREATE_ATTEMPTS: u32 = 5;
 
-/// Creates a participant that has heard every participant `oracle` (the domain's default participant,
-/// running longer) knows, recreating it when it has not within [`ANSWER_WAIT`].
+/// Creates a participant that has heard every participant `oracle` (the domain's participant running longest,
+/// [`oldest_of_domain`]) knows, recreating it when it has not within [`ANSWER_WAIT`].
 ///
 /// Why: Fast DDS sends a participant's first announcement before it registers the receivers of its sockets
 /// (`RTPSParticipantImpl::enable`, every version to 3.x; eProsima/Fast-DDS PR #6204). A peer answers a new
@@ -163,9 +181,16 @@ struct ParticipantInner {
     writers: WeakMap<(String, EndpointQos), crate::engine::RawWriter>,
     participant: sys::Participant,
     key: ParticipantKey,
-    /// For a named participant, the domain's default participant if it existed when this one was created:
-    /// it has run longer, so it knows the remote readers a first-contact gate waits for.
-    default: Weak<ParticipantInner>,
+    born: Instant,
+    /// The bridge's participants, among which this one's oracle ([`oldest_of_domain`]).
+    table: Arc<ParticipantTable>,
+}
+
+impl ParticipantInner {
+    /// The participant of this one's domain that knows the most of it (this one when it has run longest).
+    fn oracle(self: &Arc<Self>) -> Arc<Self> {
+        oldest_of_domain(&self.table, self.key.domain_id).unwrap_or_else(|| Arc::clone(self))
+    }
 }
 
 /// A handle on a shared Fast DDS participant.
@@ -372,9 +397,9 @@ impl RawWriter {
         self.writer.guid().v
     }
 
-    /// The participant that knows the most of the domain: the default one, else the writer's own.
+    /// The participant that knows the most of the domain ([`oldest_of_domain`]), the writer's own included.
     fn oracle(&self) -> Arc<ParticipantInner> {
-        self.participant.default.upgrade().unwrap_or_else(|| Arc::clone(&self.participant))
+        self.participant.oracle()
     }
 
     /// How long endpoints must have stopped arriving ([`ENDPOINTS_SETTLE`] for reliable writers).

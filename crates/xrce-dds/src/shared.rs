@@ -43,6 +43,11 @@ impl<K: Eq + Hash, V> WeakMap<K, V> {
         lock(&self.0).get(key).and_then(Weak::upgrade)
     }
 
+    /// The live values whose key `keep` accepts (taken out of the lock: dropping one never runs under it).
+    pub(crate) fn live_where(&self, keep: impl Fn(&K) -> bool) -> Vec<Arc<V>> {
+        lock(&self.0).iter().filter(|(k, _)| keep(k)).filter_map(|(_, w)| w.upgrade()).collect()
+    }
+
     /// Values alive now.
     pub(crate) fn live(&self) -> usize {
         lock(&self.0).values().filter(|w| w.strong_count() > 0).count()

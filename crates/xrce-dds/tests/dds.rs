@@ -244,6 +244,38 @@ fn writers_with_the_same_topic_and_qos_are_shared_until_the_last_handle_goes() {
     assert_ne!(w3.guid(), guid, "a new DDS writer after the last handle went");
 }
 
+/// What the agent needs to retire its default participant once a named one has run a while, and to create
+/// it again when none is left (issue 21): when the oldest named participant of a domain was created, and
+/// whether the domain has any participant. RustDDS keeps only the default participant: never a named one.
+#[test]
+#[ignore = "starts DDS: run inside shared/dds-peers/netns.sh with --ignored"]
+fn the_oldest_named_participant_and_a_domains_participants_are_reported() {
+    let b = bridge();
+    assert!(!b.domain_has_participant(0));
+    let default = b.participant(0, "").unwrap();
+    assert!(b.domain_has_participant(0));
+    assert_eq!(b.oldest_named_participant_since(0), None, "the default participant has no name");
+    let before = Instant::now();
+    let first = b.participant(0, "first_node").unwrap();
+    let second = b.participant(0, "second_node").unwrap();
+    let oldest = b.oldest_named_participant_since(0);
+    if b.engine() == xrce_dds::Engine::FastDds {
+        let first_born = oldest.expect("two named participants");
+        assert!(first_born >= before);
+        drop(first);
+        let second_born = b.oldest_named_participant_since(0).expect("the second one is left");
+        assert!(second_born > first_born, "the oldest left is the second one");
+    } else {
+        assert_eq!(oldest, None);
+        drop(first);
+    }
+    assert_eq!(b.oldest_named_participant_since(1), None, "another domain");
+    drop(default);
+    assert!(b.domain_has_participant(0), "the second named participant is alive");
+    drop(second);
+    assert!(!b.domain_has_participant(0));
+}
+
 /// PARTITION (Fast DDS engine; RustDDS has no such policy): a writer in partition "a" matches a reader in
 /// "a" and not one in "b".
 #[test]

@@ -76,16 +76,20 @@
 //!   then writes at most `depth` samples until every matched reader has acknowledged (`Acks`, same
 //!   bound). With `eager_participant` (the CLI default)
 //!   the default DDS participant exists from the agent's start, so the readers of ROS nodes already
-//!   running are known before the first client arrives. A requester also holds its first request while no
-//!   replier has matched at all ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer
-//!   matches the readers its participant knows while it is created; but a participant created for a new
-//!   name knows nothing yet (its endpoint discovery with a ROS node takes 100–300 ms: Fast DDS' 70 ms
-//!   initial ACKNACK delay, then the peer's ~93 ms NACK response delay), so there the readers counted are
-//!   those the default participant has discovered, and the gate also waits while the writer's participant
-//!   is still in discovery with a remote participant: one it has discovered without any endpoint yet (a ROS
-//!   node started with the client is not known to the default participant either), or one the default
-//!   participant knows and it has not discovered yet (its first milliseconds; a participant that missed a
-//!   peer's answer to its first announcement is created again by the bridge, docs/dds-engine.md, issue 20).
+//!   running are known before the first client arrives; once a participant created for a name has run
+//!   [`DEFAULT_PARTICIPANT_RETIRE_AFTER`] it knows as much, and the default one is retired (one participant
+//!   fewer doing discovery while ROS nodes come and go), to be created again when the domain has none
+//!   left. A requester also holds its first request while no replier has matched at all
+//!   ([`FIRST_CONTACT_GATE_REQUESTER`]). On the Fast DDS engine a new writer matches the readers its
+//!   participant knows while it is created; but a participant created for a new name knows nothing yet
+//!   (its endpoint discovery with a ROS node takes 100–300 ms: Fast DDS' 70 ms initial ACKNACK delay, then
+//!   the peer's ~93 ms NACK response delay), so there the readers counted are those the domain's
+//!   participant running longest has discovered (the default one while it lives), and the gate also waits
+//!   while the writer's participant is still in discovery with a remote participant: one it has discovered
+//!   without any endpoint yet (a ROS node started with the client is not known to the older participant
+//!   either), or one the older participant knows and it has not discovered yet (its first milliseconds; a
+//!   participant that missed a peer's answer to its first announcement is created again by the bridge,
+//!   docs/dds-engine.md, issue 20).
 //!   Best-effort writes (PX4) are not held by the
 //!   core: the middleware keeps them at the gate ([`HELD_AT_GATE`]) and replays them once it opens, at
 //!   twice the rate they were written (a burst would overflow a keep-last reader's history).
@@ -172,6 +176,17 @@ pub const FIRST_CONTACT_GATE_REQUESTER: Duration = Duration::from_millis(600);
 /// written before the match never reaches its volatile reader (a ROS 2 service client: 1 call in 50 timed out
 /// so). After it the reply goes anyway (a requester that never matches must not hold the client).
 pub const REPLY_MATCH_WAIT: Duration = Duration::from_millis(500);
+
+/// How long a participant the agent created for a name must have run before the default participant created
+/// at start ([`Dds::with_eager_participant`]) is retired: by then it has discovered every remote participant
+/// and endpoint the default one knows (discovery takes 100–300 ms, [`FIRST_CONTACT_DISCOVERY_LIMIT`] when a
+/// message is lost), and it becomes the oracle of the participants created after it (the domain's participant
+/// running longest, `xrce_dds`). Each participant of the agent does discovery with every remote one, so one
+/// fewer saves CPU time while ROS nodes come and go (docs/dds-engine.md, issue 21).
+pub const DEFAULT_PARTICIPANT_RETIRE_AFTER: Duration = Duration::from_secs(10);
+
+/// How often [`Middleware::poll`] looks whether the default participant can be retired.
+const DEFAULT_PARTICIPANT_CHECK: Duration = Duration::from_secs(1);
 
 /// DDS participants the agent creates for XRCE participant names (~1.7 MiB and 5 threads each on Fast DDS);
 /// XRCE participants named after that share the default participant, with a warning. 128 named nodes is more
@@ -405,8 +420,14 @@ pub struct Dds {
     replies_held: HashMap<EntityRef, Instant>,
     gate_timer: GateTimer,
     /// The default domain's DDS participant, created with the middleware when asked
-    /// ([`Dds::with_eager_participant`]).
+    /// ([`Dds::with_eager_participant`]) and while the domain has no older participant that knows as much.
     eager: Option<Participant>,
+    /// The default participant was retired ([`DEFAULT_PARTICIPANT_RETIRE_AFTER`]): it is created again once
+    /// the domain has no participant left, and when to look whether it can be retired.
+    eager_retired: bool,
+    eager_check_at: Option<Instant>,
+    /// [`DEFAULT_PARTICIPANT_RETIRE_AFTER`] unless set ([`Dds::with_default_participant_retire_after`]).
+    eager_retire_after: Duration,
     /// Every XRCE participant of a domain shares the default DDS participant, whatever its name
     /// ([`Dds::with_shared_participants`]).
     share_participants: bool,
@@ -511,6 +532,9 @@ impl Dds {
             replies_held: HashMap::new(),
             gate_timer: GateTimer::default(),
             eager: None,
+            eager_retired: false,
+            eager_check_at: None,
+            eager_retire_after: DEFAULT_PARTICIPANT_RETIRE_AFTER,
             share_participants: false,
             named_limit: MAX_NAMED_PARTICIPANTS,
             after_send: VecDeque::new(),
@@ -543,20 +567,64 @@ impl Dds {
 
     /// Creates now the DDS participant an XRCE participant of the agent's domain (255) without profile
     /// will use, so that discovery with the DDS applications already running is done before the first
-    /// client arrives (see the module documentation). It stays for the middleware's life. A failure is
-    /// logged and the participant is then created on first use, as without this.
+    /// client arrives (see the module documentation). Once a participant created for a name has run
+    /// [`DEFAULT_PARTICIPANT_RETIRE_AFTER`], it knows as much and the default one is released (it stays while
+    /// an XRCE participant uses it); it is created again when the domain has no participant left. A failure
+    /// is logged and the participant is then created on first use, as without this.
     pub fn with_eager_participant(mut self, eager: bool) -> Self {
         self.eager = None;
+        self.eager_retired = false;
         if eager {
-            match self.bridge.participant(AGENT_DOMAIN, "") {
-                Ok(p) => {
-                    tracing::info!(guid = ?p.guid(), "default DDS participant created at start (discovery runs before clients arrive)");
-                    self.eager = Some(p);
-                }
-                Err(e) => tracing::warn!("default DDS participant not created at start: {e}"),
-            }
+            self.create_default_participant("at start");
         }
         self
+    }
+
+    /// How long a participant created for a name must have run before the default participant created at
+    /// start is retired ([`DEFAULT_PARTICIPANT_RETIRE_AFTER`] by default; tests shorten it).
+    pub fn with_default_participant_retire_after(mut self, after: Duration) -> Self {
+        self.eager_retire_after = after;
+        self
+    }
+
+    fn create_default_participant(&mut self, when: &str) {
+        match self.bridge.participant(AGENT_DOMAIN, "") {
+            Ok(p) => {
+                tracing::info!(guid = ?p.guid(), "default DDS participant created {when} (discovery runs before clients arrive)");
+                self.eager = Some(p);
+            }
+            Err(e) => tracing::warn!("default DDS participant not created {when}: {e}"),
+        }
+    }
+
+    /// Retires the default participant created at start once a named one knows the domain as well
+    /// ([`DEFAULT_PARTICIPANT_RETIRE_AFTER`]), at most every [`DEFAULT_PARTICIPANT_CHECK`].
+    fn retire_default_participant(&mut self, now: Instant) {
+        if self.eager.is_none() || self.eager_check_at.is_some_and(|at| now < at) {
+            return;
+        }
+        self.eager_check_at = Some(now + DEFAULT_PARTICIPANT_CHECK);
+        let settled = self
+            .bridge
+            .oldest_named_participant_since(AGENT_DOMAIN)
+            .is_some_and(|born| now.saturating_duration_since(born) >= self.eager_retire_after);
+        if settled {
+            let deleting = Instant::now();
+            self.eager = None;
+            self.eager_retired = true;
+            let (took, after) = (deleting.elapsed(), self.eager_retire_after);
+            tracing::info!(?took, "default DDS participant retired: a participant running longer than {after:?} knows the domain (one participant fewer in discovery)");
+        }
+    }
+
+    /// Creates the retired default participant again once the domain has no participant left, so that
+    /// discovery runs before the next client arrives.
+    fn restore_default_participant(&mut self) {
+        if self.eager_retired && !self.bridge.domain_has_participant(AGENT_DOMAIN) {
+            self.eager_retired = false;
+            self.eager_check_at = None;
+            self.create_default_participant("again (the domain had no participant left)");
+        }
     }
 
     /// Publishes through the DDS writer, or hands the sample ahead to the agent's own readers and publishes
@@ -1115,6 +1183,8 @@ impl Middleware for Dds {
         let node = self.entities.remove(&entity).ok_or_else(|| unknown(entity))?;
         self.graph_unlink(entity, &node);
         self.owned.removed(entity.client);
+        drop(node);
+        self.restore_default_participant();
         Ok(())
     }
 
@@ -1136,6 +1206,7 @@ impl Middleware for Dds {
             }
         }
         self.entities.retain(|e, _| e.client != client);
+        self.restore_default_participant();
     }
 
     fn write_data(&mut self, writer: EntityRef, data: &[u8], now: Instant) -> Result<WriteOutcome, MiddlewareError> {
@@ -1152,6 +1223,7 @@ impl Middleware for Dds {
     }
 
     fn poll(&mut self, now: Instant) {
+        self.retire_default_participant(now);
         if self.held.is_empty() {
             return;
         }
