@@ -279,6 +279,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             self.unpinned = Some(if dead { Unpinned::Dead } else { Unpinned::Stalled });
             self.pin_readers(ctx, false);
         }
+        self.trim_idle_buffers();
         // A dead client gets liveness probes instead ([`liveness`](super::liveness)).
         if !dead {
             let beats: Vec<u8> = self
@@ -296,6 +297,17 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             for sid in beats {
                 self.queue_heartbeat(ctx, sid);
             }
+        }
+    }
+
+    /// Frees the buffers of empty queues (outbox, ACKNACKs owed) on a heartbeat turn, the last turn a
+    /// client gets before it goes idle: 10,000 idle clients then keep none. The streams trim themselves
+    /// ([`ReliableOut::trim`]); a busy client refills its queues between turns, so this costs it an
+    /// allocation per heartbeat period at most, never one per message.
+    fn trim_idle_buffers(&mut self) {
+        self.outbox.trim();
+        if self.acks_due.is_empty() && self.acks_due.capacity() > 0 {
+            self.acks_due = Vec::new();
         }
     }
 
