@@ -22,7 +22,7 @@ use xrce_proto::submessage::TimestampReply;
 use super::outbox::{Class, Control, Outbox};
 use super::read::ReadTask;
 use super::session::{Resume, Streams, Unpinned};
-use super::stats::{bump, ClientCounters, DropReason};
+use super::stats::{bump, ClientTotals, DropReason};
 use super::stream::ReliableOut;
 use super::timer::{Timer, TimerTable};
 use super::vecmap::VecMap;
@@ -117,7 +117,7 @@ pub struct Connection<E> {
     /// When the agent created it.
     pub created_at: Instant,
     /// Its totals ([`snapshot`](super::snapshot)).
-    pub counters: ClientCounters,
+    pub counters: ClientTotals,
 }
 
 /// Which of the endpoint's client lists a connection is in.
@@ -163,14 +163,14 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             listed: Listed::default(),
             watch: super::liveness::Watch::default(),
             created_at: now,
-            counters: ClientCounters::default(),
+            counters: ClientTotals::default(),
         }
     }
 
     /// Counts a datagram of this client dropped for `reason`, in its totals and the agent's.
     pub(super) fn drop_datagram<M>(&mut self, ctx: &mut Ctx<'_, E, M>, reason: DropReason) {
         ctx.stats.drop_datagram(reason);
-        bump(&mut self.counters.datagrams_dropped);
+        bump(&mut self.counters.rare().datagrams_dropped);
     }
 
     /// Header of a message to this client on `stream` with `seq`.
@@ -201,7 +201,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     /// Resets every stream (same-session CREATE_CLIENT, RESET).
     pub fn reset_streams(&mut self) {
         // Their counts stay in the client's totals.
-        self.counters = self.counters_with_streams();
+        self.counters = self.counters_with_streams().into();
         self.streams = Streams::default();
         self.resume = VecMap::default();
         self.blocked.clear();

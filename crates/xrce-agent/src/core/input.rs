@@ -487,7 +487,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             Ok(WriteOutcome::WouldBlock) => {
                 tracing::debug!(client = %self.key, %id, "middleware full: best-effort sample dropped");
                 stats::bump(&mut ctx.stats.samples_dropped_in);
-                stats::bump(&mut self.counters.samples_dropped_in);
+                stats::bump(&mut self.counters.rare().samples_dropped_in);
             }
             Err(e) => tracing::debug!(client = %self.key, %id, "write failed: {e}"),
         }

@@ -102,7 +102,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 return Liveness::Remove;
             } else {
                 self.probes = self.probes.saturating_add(1);
-                super::stats::bump(&mut self.counters.liveness_probes);
+                super::stats::bump(&mut self.counters.rare().liveness_probes);
                 self.probe(ctx);
                 self.timers.set(Timer::Liveness, (now + ctx.config.heartbeat_period).min(until));
                 return Liveness::Alive;
@@ -123,7 +123,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
         if silent >= plan.probe_from {
             self.probes = self.probes.saturating_add(1);
-            super::stats::bump(&mut self.counters.liveness_probes);
+            super::stats::bump(&mut self.counters.rare().liveness_probes);
             self.probe(ctx);
             self.timers.set(Timer::Liveness, (now + plan.interval).min(self.last_heard + plan.timeout));
         } else {
