@@ -96,7 +96,9 @@ pub struct Connection<E> {
     /// Its reliable readers stopped holding writers back (see [`Unpinned`]).
     pub unpinned: Option<Unpinned>,
     /// Reliable input streams whose held message was processed in part: where to resume.
-    pub resume: VecMap<u8, Resume>,
+    /// Boxed when there is one: rare (back-pressure on a fragmented or multi-submessage message), and 16 B
+    /// less in each of thousands of idle connections.
+    pub resume: Option<Box<VecMap<u8, Resume>>>,
     /// Reliable input streams holding a message until the middleware can take its writes.
     pub blocked: Vec<StreamId>,
     /// Reliable input streams owed an ACKNACK (built with their latest state when the endpoint sends it).
@@ -153,7 +155,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             shared_memory: false,
             pack_data: false,
             unpinned: None,
-            resume: VecMap::default(),
+            resume: None,
             blocked: Vec::new(),
             acks_due: Vec::new(),
             outbox: Outbox::default(),
@@ -203,7 +205,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         // Their counts stay in the client's totals.
         self.counters = self.counters_with_streams().into();
         self.streams = Streams::default();
-        self.resume = VecMap::default();
+        self.resume = None;
         self.blocked.clear();
         self.acks_due.clear();
     }
