@@ -12,7 +12,7 @@ use xrce_proto::{BaseObjectRequest, ClientKey, MessageHeader, ObjectId};
 
 use super::connection::{Connection, Ctx};
 use super::outbox::Control;
-use super::stats::{add, bump, ClientCounters};
+use super::stats::{add, bump, ClientTotals};
 use crate::middleware::{EntityRef, Middleware, SampleRef};
 
 /// Samples one read task may send per turn on a best-effort stream (reliable streams are bounded by their
@@ -155,7 +155,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
 }
 
 /// Counts a sample of `size` bytes taken for the client.
-fn count_out(counters: &mut ClientCounters, size: usize) {
+fn count_out(counters: &mut ClientTotals, size: usize) {
     bump(&mut counters.samples_out);
     add(&mut counters.bytes_out, size);
 }

@@ -150,7 +150,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     fn drain_reliable<M: Middleware>(&mut self, ctx: &mut Ctx<'_, E, M>, stream: StreamId, now: Instant) -> bool {
         let mut progress = false;
         while let Some(msg) = self.streams.rel_in.get_mut(&stream.0).and_then(ReliableIn::pop_ready) {
-            let resume = self.resume.remove(&stream.0);
+            let resume = self.take_resume(stream);
             let blocked = if resume.is_none() && self.write_blocked(ctx, stream, &msg, now) {
                 Some(Resume::default())
             } else {
@@ -168,10 +168,21 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         progress
     }
 
+    /// Where the held message of `stream` resumes, if it was processed in part; the table goes with its last
+    /// entry.
+    fn take_resume(&mut self, stream: StreamId) -> Option<Resume> {
+        let table = self.resume.as_mut()?;
+        let resume = table.remove(&stream.0);
+        if table.is_empty() {
+            self.resume = None;
+        }
+        resume
+    }
+
     /// Holds a reliable input stream at `resume` until the middleware can take its writes.
     fn hold_at(&mut self, stream: StreamId, resume: Resume) {
         if resume != Resume::default() {
-            self.resume.insert(stream.0, resume);
+            self.resume.get_or_insert_with(Box::default).insert(stream.0, resume);
         }
         if !self.blocked.contains(&stream) {
             self.blocked.push(stream);
@@ -487,7 +498,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             Ok(WriteOutcome::WouldBlock) => {
                 tracing::debug!(client = %self.key, %id, "middleware full: best-effort sample dropped");
                 stats::bump(&mut ctx.stats.samples_dropped_in);
-                stats::bump(&mut self.counters.samples_dropped_in);
+                stats::bump(&mut self.counters.rare().samples_dropped_in);
             }
             Err(e) => tracing::debug!(client = %self.key, %id, "write failed: {e}"),
         }

@@ -24,6 +24,7 @@
 //! heartbeat period.
 
 use foldhash::{HashMap, HashMapExt};
+use smallvec::SmallVec;
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::time::{Duration, Instant};
@@ -101,7 +102,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
                 return Liveness::Remove;
             } else {
                 self.probes = self.probes.saturating_add(1);
-                super::stats::bump(&mut self.counters.liveness_probes);
+                super::stats::bump(&mut self.counters.rare().liveness_probes);
                 self.probe(ctx);
                 self.timers.set(Timer::Liveness, (now + ctx.config.heartbeat_period).min(until));
                 return Liveness::Alive;
@@ -122,7 +123,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
         }
         if silent >= plan.probe_from {
             self.probes = self.probes.saturating_add(1);
-            super::stats::bump(&mut self.counters.liveness_probes);
+            super::stats::bump(&mut self.counters.rare().liveness_probes);
             self.probe(ctx);
             self.timers.set(Timer::Liveness, (now + plan.interval).min(self.last_heard + plan.timeout));
         } else {
@@ -163,7 +164,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
 /// The keyed clients each endpoint created, so a new session from an endpoint finds its predecessors
 /// without scanning the client table. Entries of clients gone or moved are pruned when met.
 #[derive(Debug)]
-pub(super) struct CreatedFrom<E>(HashMap<E, Vec<ClientKey>>);
+pub(super) struct CreatedFrom<E>(HashMap<E, SmallVec<[ClientKey; 4]>>);
 
 impl<E> Default for CreatedFrom<E> {
     fn default() -> Self {
@@ -190,7 +191,7 @@ where
     pub(super) fn suspect_endpoint_peers(&mut self, from: E, key: ClientKey, now: Instant) {
         let clients = &self.clients;
         let created = self.created_from.0.entry(from).or_default();
-        created.retain(|k| clients.get(k).is_some_and(|c| c.endpoint == Some(from)));
+        created.retain(|k| clients.get(&*k).is_some_and(|c| c.endpoint == Some(from)));
         let others: Vec<ClientKey> = created.iter().copied().filter(|k| *k != key).collect();
         if !created.contains(&key) {
             created.push(key);
@@ -198,7 +199,7 @@ where
         if self.created_from.0.len() > 2 * self.clients.len() + 1024 {
             let clients = &self.clients;
             self.created_from.0.retain(|ep, keys| {
-                keys.retain(|k| clients.get(k).is_some_and(|c| c.endpoint == Some(*ep)));
+                keys.retain(|k| clients.get(&*k).is_some_and(|c| c.endpoint == Some(*ep)));
                 !keys.is_empty()
             });
         }

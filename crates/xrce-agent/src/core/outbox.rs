@@ -128,6 +128,17 @@ impl Outbox {
         self.open_best_effort = None;
     }
 
+    /// Frees the queues' buffers when nothing waits, so an idle client keeps none (called on its idle
+    /// turns, never per message: a busy client keeps its buffers).
+    pub fn trim(&mut self) {
+        if self.control.is_empty() && self.control.capacity() > 0 {
+            self.control = VecDeque::new();
+        }
+        if self.stream.is_empty() && self.stream.capacity() > 0 {
+            self.stream = VecDeque::new();
+        }
+    }
+
     /// Sets whether the client is in the endpoint's turn list of `class`; returns whether it was.
     pub(super) fn set_listed(&mut self, class: Class, listed: bool) -> bool {
         let slot = match class {
@@ -225,5 +236,18 @@ mod tests {
             "the newest is refused"
         );
         assert_eq!(out.pop_control(), Some(Control::Heartbeat(0x80)), "queued control messages are kept");
+    }
+
+    #[test]
+    fn trim_frees_only_empty_queues() {
+        let mut out = Outbox::default();
+        assert_eq!(out.push_stream(vec![1], 4), None);
+        assert_eq!(out.push_control(Control::Heartbeat(0x80)), Ok(()));
+        assert_eq!(out.pop_control(), Some(Control::Heartbeat(0x80)));
+        out.trim();
+        assert_eq!(out.control.capacity(), 0, "the emptied control queue keeps no buffer");
+        assert_eq!(out.pop_stream(), Some(vec![1]), "a waiting stream message stays queued");
+        out.trim();
+        assert_eq!(out.stream.capacity(), 0);
     }
 }

@@ -188,7 +188,7 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
     /// Its counters with its streams' counts added.
     pub(super) fn counters_with_streams(&self) -> ClientCounters {
         let s = &self.streams;
-        let mut c = self.counters;
+        let mut c = self.counters.counters();
         let add = |n: &mut u64, by: u64| *n = n.saturating_add(by);
         s.be_in.values().for_each(|st| add(&mut c.messages_in, st.messages));
         s.rel_in.values().for_each(|st| add(&mut c.messages_in, st.messages));

@@ -50,6 +50,9 @@ pub const MAX_TOPICS: usize = 4096;
 
 /// Domain and topic (or service) name; names are shared between every entity of a topic.
 type TopicKey = (i16, Arc<str>);
+/// A topic's index in [`TopicSlab`]: 32 bits keep every entity 8 bytes smaller (thousands of clients hold
+/// four each); [`MAX_TOPICS`] is far below its range.
+type Slot = u32;
 /// A request waiting for repliers: its identity and bytes.
 type PendingRequest = (SampleIdentity, Arc<[u8]>);
 
@@ -98,9 +101,9 @@ impl<T> Ring<T> {
 /// never hashes its topic's name (that cost more than the rest of a write and a take together).
 #[derive(Debug, Default)]
 struct TopicSlab {
-    slots: HashMap<TopicKey, usize>,
+    slots: HashMap<TopicKey, Slot>,
     rings: Vec<Option<Ring<Vec<u8>>>>,
-    free: Vec<usize>,
+    free: Vec<Slot>,
 }
 
 impl TopicSlab {
@@ -110,7 +113,7 @@ impl TopicSlab {
 
     /// Attaches one more entity to the topic `key` (created if new), which then shares the registry's copy
     /// of the name; the topic's slot.
-    fn attach(&mut self, key: &mut TopicKey) -> Result<usize, MiddlewareError> {
+    fn attach(&mut self, key: &mut TopicKey) -> Result<Slot, MiddlewareError> {
         if let Some((shared, &slot)) = self.slots.get_key_value(key) {
             *key = shared.clone();
             if let Some(ring) = self.get_mut(slot) {
@@ -124,14 +127,16 @@ impl TopicSlab {
         let ring = Ring { users: 1, ..Ring::default() };
         let slot = match self.free.pop() {
             Some(slot) => {
-                if let Some(free) = self.rings.get_mut(slot) {
+                if let Some(free) = self.rings.get_mut(slot as usize) {
                     *free = Some(ring);
                 }
                 slot
             }
             None => {
+                let slot = Slot::try_from(self.rings.len())
+                    .map_err(|_| MiddlewareError::Resources("CED topic registry full".into()))?;
                 self.rings.push(Some(ring));
-                self.rings.len() - 1
+                slot
             }
         };
         self.slots.insert(key.clone(), slot);
@@ -139,8 +144,8 @@ impl TopicSlab {
     }
 
     /// One entity of the topic in `slot` is gone; the topic goes with its last one.
-    fn detach(&mut self, key: &TopicKey, slot: usize) {
-        let Some(entry) = self.rings.get_mut(slot) else { return };
+    fn detach(&mut self, key: &TopicKey, slot: Slot) {
+        let Some(entry) = self.rings.get_mut(slot as usize) else { return };
         let Some(ring) = entry else { return };
         ring.users = ring.users.saturating_sub(1);
         if ring.users == 0 {
@@ -150,12 +155,12 @@ impl TopicSlab {
         }
     }
 
-    fn get(&self, slot: usize) -> Option<&Ring<Vec<u8>>> {
-        self.rings.get(slot)?.as_ref()
+    fn get(&self, slot: Slot) -> Option<&Ring<Vec<u8>>> {
+        self.rings.get(slot as usize)?.as_ref()
     }
 
-    fn get_mut(&mut self, slot: usize) -> Option<&mut Ring<Vec<u8>>> {
-        self.rings.get_mut(slot)?.as_mut()
+    fn get_mut(&mut self, slot: Slot) -> Option<&mut Ring<Vec<u8>>> {
+        self.rings.get_mut(slot as usize)?.as_mut()
     }
 }
 
@@ -168,19 +173,19 @@ enum Entity {
         participant: EntityRef,
         key: TopicKey,
         /// In [`TopicSlab`], once attached.
-        slot: usize,
+        slot: Slot,
     },
     Group {
         participant: EntityRef,
     },
     Writer {
         key: TopicKey,
-        slot: usize,
+        slot: Slot,
     },
     Reader {
         key: TopicKey,
         cursor: u64,
-        slot: usize,
+        slot: Slot,
     },
     // Boxed so every entity stays small (requesters are rare, participants and endpoints are not).
     #[allow(clippy::box_collection)]
@@ -274,13 +279,13 @@ impl Ced {
     }
 
     /// Samples of topic `slot` its slowest reliable reader has not taken, if it has one.
-    fn backlog(&self, slot: usize) -> Option<u64> {
+    fn backlog(&self, slot: Slot) -> Option<u64> {
         let pin = self.pin(slot)?;
         Some(self.topics.get(slot).map_or(0, |r| r.next_seq).saturating_sub(pin))
     }
 
     /// The oldest sequence number a pinning (reliable) reader of the topic in `slot` has not taken.
-    fn pin(&self, slot: usize) -> Option<u64> {
+    fn pin(&self, slot: Slot) -> Option<u64> {
         self.topics.get(slot)?.pinned.iter().map(|(_, cursor)| *cursor).min()
     }
 
