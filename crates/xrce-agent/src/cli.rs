@@ -287,7 +287,7 @@ Arguments per transport (place them after the transport):
                                       may create a session; repeatable (ours) [default: anybody]
       --psk-file <FILE>               require a CREATE_CLIENT token made with this pre-shared key (ours)
       --metrics <ADDR:PORT>           serve Prometheus metrics at http://ADDR:PORT/metrics (ours) [default: off]
-      --ros-diagnostics <on|off>      publish ROS 2 /diagnostics at 1 Hz (dds middleware; ours) [default: off]
+      --ros-diagnostics <on|off>      publish ROS 2 /diagnostics at 1 Hz (dds middleware; ours) [default: on]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
       --max-connections <N>           tcp4, tcp6: most connections served at once (ours) [default: 100]
@@ -428,10 +428,8 @@ struct CommonArgs {
     #[arg(long, value_name = "ADDR:PORT")]
     metrics: Option<std::net::SocketAddr>,
     /// DDS middleware: publish a ROS 2 diagnostic_msgs/DiagnosticArray on /diagnostics every second, one
-    /// status per client and one for the agent. Off by default until its first-contact cost is understood:
-    /// with it on, a burst written right after STATUS OK was lost whole by a running Cyclone reader in 6 of 8
-    /// runs (`--participant-names off`), 0 of 5 with it off.
-    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::Off)]
+    /// status per client and one for the agent, once a /diagnostics reader is known (on by default).
+    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
     ros_diagnostics: OnOff,
 }
 
@@ -792,7 +790,7 @@ mod tests {
                 client_timeout: Some(std::time::Duration::from_secs(60)),
                 auth: Default::default(),
                 metrics: None,
-                ros_diagnostics: false,
+                ros_diagnostics: true,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);

@@ -233,6 +233,16 @@ impl Participant {
             .count()
     }
 
+    /// Remote readers on `topic` this participant has discovered.
+    pub fn discovered_readers(&self, topic: &str) -> usize {
+        self.inner
+            .participant
+            .discovered_readers()
+            .iter()
+            .filter(|d| d.subscription_topic_data.topic_name() == topic)
+            .count()
+    }
+
     /// Domain and profile this participant serves.
     pub fn key(&self) -> &ParticipantKey {
         &self.inner.key

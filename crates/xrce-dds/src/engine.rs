@@ -174,6 +174,21 @@ impl DdsBridge {
         }
     }
 
+    /// Whether a live participant of domain `xrce_domain_id` knows a remote reader on `topic` (the one that has
+    /// run longest on Fast DDS, the default one on RustDDS); `None` while the domain has no participant. The
+    /// agent creates a writer nobody may read only once a reader is known (`/diagnostics`).
+    pub fn domain_knows_reader(&self, xrce_domain_id: i32, topic: &str) -> Option<bool> {
+        match self.engine() {
+            Engine::RustDds => {
+                self.rust.existing_participant(xrce_domain_id, "").map(|p| p.discovered_readers(topic) > 0)
+            }
+            #[cfg(feature = "fastdds")]
+            Engine::FastDds => self.fast.domain_knows_reader(self.resolve_domain(xrce_domain_id).ok()?, topic),
+            #[cfg(not(feature = "fastdds"))]
+            Engine::FastDds => None,
+        }
+    }
+
     /// Whether some participant of domain `xrce_domain_id` is alive, whatever its name.
     pub fn domain_has_participant(&self, xrce_domain_id: i32) -> bool {
         match self.engine() {

@@ -102,6 +102,12 @@ impl Bridge {
         named.iter().map(|p| p.born).min()
     }
 
+    /// Whether the participant of `domain_id` that has run longest knows a remote reader on `topic` (`None`:
+    /// the domain has no participant).
+    pub(crate) fn domain_knows_reader(&self, domain_id: u16, topic: &str) -> Option<bool> {
+        oldest_of_domain(&self.participants, domain_id).map(|p| p.participant.known_readers(topic) > 0)
+    }
+
     /// Whether some participant of `domain_id` is alive.
     pub(crate) fn domain_has_participant(&self, domain_id: u16) -> bool {
         !self.participants.live_where(|k| k.domain_id == domain_id).is_empty()

@@ -23,6 +23,7 @@ int32_t xf_writer_unmatched_in_discovery(void *w, void *o, uint32_t s) { (void)w
 int32_t xf_writer_matched_prefix(void *w, const uint8_t *prefix) { (void)w; (void)prefix; return 0; }
 int32_t xf_participant_in_discovery(void *p, void *o, uint32_t s) { (void)p; (void)o; (void)s; return 0; }
 int32_t xf_participant_undiscovered(void *p, void *o) { (void)p; (void)o; return 0; }
+int32_t xf_participant_known_readers(void *p, const char *t) { (void)p; (void)t; return 0; }
 int32_t xf_participant_reannounce_unheard(void *p) { (void)p; return 0; }
 int xf_write(void *w, const uint8_t *b, size_t l, const void *r, void *o) {
     (void)w; (void)b; (void)l; (void)r; (void)o; return -1;

@@ -605,6 +605,19 @@ int32_t xf_participant_in_discovery(xf_participant* p, xf_participant* oracle, u
 // discovered: each answered p's first announcement once, and Fast DDS drops what arrives before p's receivers
 // are registered, which happens after that announcement (RTPSParticipantImpl::enable). Such a participant
 // stays unknown to p until its next periodic announcement (3 s by default).
+// Remote readers on `topic` that `p` has discovered and not seen leave (< 0: error).
+int32_t xf_participant_known_readers(xf_participant* p, const char* topic) {
+    XF_TRY
+    const std::string name(topic ? topic : "");
+    std::lock_guard<std::mutex> g(p->discovery.m);
+    int32_t n = 0;
+    for (const auto& kv : p->discovery.readers) {
+        if (kv.second.topic == name) ++n;
+    }
+    return n;
+    XF_CATCH(-2)
+}
+
 int32_t xf_participant_undiscovered(xf_participant* p, xf_participant* oracle) {
     XF_TRY
     if (oracle == p) return 0;

@@ -95,6 +95,7 @@ extern "C" {
     pub(crate) fn xf_participant_in_discovery(p: *mut XfParticipant, oracle: *mut XfParticipant, settle_ms: u32)
         -> i32;
     pub(crate) fn xf_participant_undiscovered(p: *mut XfParticipant, oracle: *mut XfParticipant) -> i32;
+    pub(crate) fn xf_participant_known_readers(p: *mut XfParticipant, topic: *const c_char) -> i32;
     pub(crate) fn xf_participant_reannounce_unheard(p: *mut XfParticipant) -> i32;
     pub(crate) fn xf_write(
         w: *mut XfWriter,

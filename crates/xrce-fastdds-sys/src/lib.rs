@@ -302,6 +302,15 @@ impl Participant {
         usize::try_from(unsafe { ffi::xf_participant_undiscovered(self.0 .0, oracle.0 .0) }).unwrap_or(0)
     }
 
+    /// Remote readers on `topic` this participant has discovered and not seen leave (0 on error, and for a
+    /// topic name with a NUL byte).
+    pub fn known_readers(&self, topic: &str) -> usize {
+        let Ok(topic) = CString::new(topic) else { return 0 };
+        // SAFETY: live participant (held by `self`); `topic` is a NUL-terminated string that outlives the call;
+        // the shim reads the participant's discovery table under its lock.
+        usize::try_from(unsafe { ffi::xf_participant_known_readers(self.0 .0, topic.as_ptr()) }).unwrap_or(0)
+    }
+
     /// Asks every other participant of this process in its domain that this one has not discovered to announce
     /// itself again (their answers to this one's first announcement may have been dropped); how many were asked.
     /// They announce by changing their USER_DATA to `xrce-rs-announce=N;` (ROS 2 reads only `enclave=`).

@@ -1,6 +1,14 @@
 //! `--ros-diagnostics`: the DDS middleware writes each snapshot the core publishes as a ROS 2
 //! `DiagnosticArray` on `rt/diagnostics` ([`crate::middleware::diagnostics`] encodes it), from the agent's
-//! default DDS participant, created on first use like the ROS 2 graph's writer.
+//! default DDS participant.
+//!
+//! The writer is created only once one of the agent's participants knows a remote `/diagnostics` reader
+//! (`rqt_robot_monitor`, `diagnostic_aggregator`, `ros2 topic echo`): nobody reads it otherwise, and an
+//! endpoint the default participant has before a peer appears costs that peer's first contact. A DDS peer that
+//! discovers a participant with endpoints must fetch their announcements (SEDP) first; Cyclone DDS asked Fast
+//! DDS 2.9 for the missing one as soon as it matched, Fast DDS answered only at its next heartbeat, 1 s later,
+//! and the announcement of a client's writer created meanwhile waited behind it: a burst the client wrote right
+//! after STATUS OK was lost whole (tests/dds_interop.rs, 6 runs in 6 with the writer created at start).
 
 use std::time::SystemTime;
 
@@ -34,6 +42,9 @@ impl Dds {
             return;
         }
         if d.writer.is_none() {
+            if self.bridge.domain_knows_reader(AGENT_DOMAIN, TOPIC) != Some(true) {
+                return;
+            }
             let created = self.bridge.participant(AGENT_DOMAIN, "").and_then(|p| {
                 let topic = p.topic(TOPIC, TYPE, false)?;
                 // rclcpp's default publisher QoS (diagnostic_updater's): reliable, volatile, keep last 10.
