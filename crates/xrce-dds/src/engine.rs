@@ -356,6 +356,16 @@ impl RawTopic {
         each!(self, t => t.name())
     }
 
+    /// Topic name, shared: on Fast DDS every handle on the topic points to one copy (an agent keeps it per
+    /// endpoint, thousands of clients naming the same topic).
+    pub fn shared_name(&self) -> Arc<str> {
+        match self {
+            Self::Rust(t) => Arc::from(t.name()),
+            #[cfg(feature = "fastdds")]
+            Self::Fast(t) => t.shared_name(),
+        }
+    }
+
     /// Type name.
     pub fn type_name(&self) -> String {
         each!(self, t => t.type_name())

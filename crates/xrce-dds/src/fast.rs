@@ -183,7 +183,7 @@ fn create_heard(
 }
 
 struct ParticipantInner {
-    topics: TopicTable<Arc<sys::Topic>>,
+    topics: TopicTable<Arc<TopicInner>>,
     writers: WeakMap<(String, EndpointQos), crate::engine::RawWriter>,
     participant: sys::Participant,
     key: ParticipantKey,
@@ -211,34 +211,41 @@ impl std::fmt::Debug for Participant {
     }
 }
 
-/// A topic of a Fast DDS participant.
-#[derive(Clone)]
-pub struct RawTopic {
-    topic: Arc<sys::Topic>,
-    name: String,
+/// A topic of a Fast DDS participant, shared by every handle on it (its participant's table holds one).
+struct TopicInner {
+    topic: sys::Topic,
+    name: Arc<str>,
     type_name: String,
     keyed: bool,
 }
 
+/// A handle on a topic of a Fast DDS participant: a pointer, so that the thousands of clients naming the same
+/// topic cost no allocation each.
+#[derive(Clone)]
+pub struct RawTopic(Arc<TopicInner>);
+
 impl std::fmt::Debug for RawTopic {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("FastTopic")
-            .field("name", &self.name)
-            .field("type", &self.type_name)
-            .field("keyed", &self.keyed)
+            .field("name", &self.0.name)
+            .field("type", &self.0.type_name)
+            .field("keyed", &self.0.keyed)
             .finish()
     }
 }
 
 impl RawTopic {
     pub(crate) fn name(&self) -> String {
-        self.name.clone()
+        self.0.name.to_string()
+    }
+    pub(crate) fn shared_name(&self) -> Arc<str> {
+        Arc::clone(&self.0.name)
     }
     pub(crate) fn type_name(&self) -> String {
-        self.type_name.clone()
+        self.0.type_name.clone()
     }
     pub(crate) fn is_keyed(&self) -> bool {
-        self.keyed
+        self.0.keyed
     }
 }
 
@@ -281,14 +288,14 @@ impl Participant {
 
     pub(crate) fn topic(&self, name: &str, type_name: &str, keyed: bool) -> Result<RawTopic, DdsError> {
         let topic = self.inner.topics.get_or_try_create(name, type_name, keyed, || {
-            self.inner.participant.topic(name, type_name, keyed).map(Arc::new).map_err(create_err("topic"))
+            let topic = self.inner.participant.topic(name, type_name, keyed).map_err(create_err("topic"))?;
+            Ok(Arc::new(TopicInner { topic, name: Arc::from(name), type_name: type_name.to_owned(), keyed }))
         })?;
-        Ok(RawTopic { topic, name: name.to_owned(), type_name: type_name.to_owned(), keyed })
+        Ok(RawTopic(topic))
     }
 
     pub(crate) fn find_topic(&self, name: &str) -> Option<RawTopic> {
-        let e = self.inner.topics.find(name)?;
-        Some(RawTopic { topic: e.topic, name: name.to_owned(), type_name: e.type_name, keyed: e.keyed })
+        Some(RawTopic(self.inner.topics.find(name)?.topic))
     }
 
     pub(crate) fn shared_writer(
@@ -296,7 +303,7 @@ impl Participant {
         topic: &RawTopic,
         qos: &EndpointQos,
     ) -> Result<Arc<crate::engine::RawWriter>, DdsError> {
-        self.inner.writers.get_or_try_insert((topic.name.clone(), qos.clone()), || {
+        self.inner.writers.get_or_try_insert((topic.name(), qos.clone()), || {
             Ok(Arc::new(crate::engine::RawWriter::Fast(Arc::new(self.create_writer(topic, qos)?))))
         })
     }
@@ -305,10 +312,10 @@ impl Participant {
         let writer = self
             .inner
             .participant
-            .writer(&topic.topic, &to_fast(qos, false, topic.keyed))
+            .writer(&topic.0.topic, &to_fast(qos, false, topic.0.keyed))
             .map_err(create_err("datawriter"))?;
         let reliable = matches!(qos.reliability, Reliability::Reliable);
-        Ok(RawWriter { writer, _topic: Arc::clone(&topic.topic), participant: Arc::clone(&self.inner), reliable })
+        Ok(RawWriter { writer, _topic: Arc::clone(&topic.0), participant: Arc::clone(&self.inner), reliable })
     }
 
     pub(crate) fn create_reader_filtered(
@@ -331,7 +338,7 @@ impl Participant {
         let reader = self
             .inner
             .participant
-            .reader(&topic.topic, &to_fast(qos, true, topic.keyed), on_data)
+            .reader(&topic.0.topic, &to_fast(qos, true, topic.0.keyed), on_data)
             .map_err(create_err("datareader"))?;
         let resume_cell = Arc::clone(&cell);
         let resume: Resume = Arc::new(move || {
@@ -352,7 +359,7 @@ impl Participant {
             guid,
             _source: source,
             _reader: reader,
-            _topic: Arc::clone(&topic.topic),
+            _topic: Arc::clone(&topic.0),
             _participant: Arc::clone(&self.inner),
         })
     }
@@ -369,7 +376,7 @@ const ENDPOINTS_SETTLE: Duration = Duration::from_millis(100);
 pub struct RawWriter {
     writer: sys::Writer,
     // Drop order: the writer goes before its topic and participant.
-    _topic: Arc<sys::Topic>,
+    _topic: Arc<TopicInner>,
     participant: Arc<ParticipantInner>,
     reliable: bool,
 }
@@ -507,7 +514,7 @@ pub struct RawReader {
     _source: Arc<Source>,
     // Drop order: the reader (and its callback) goes before its topic and participant.
     _reader: sys::Reader,
-    _topic: Arc<sys::Topic>,
+    _topic: Arc<TopicInner>,
     _participant: Arc<ParticipantInner>,
 }
 

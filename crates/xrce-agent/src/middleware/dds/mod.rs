@@ -211,7 +211,7 @@ pub const AFTER_SEND_LIMIT: Duration = Duration::from_millis(1);
 
 /// A topic as the agent's DDS participants see it: domain and topic name. A local writer reaches the local
 /// readers of the same topic in every participant of the agent in that domain (participants per name).
-type TopicId = (u16, String);
+type TopicId = (u16, Arc<str>);
 
 /// What a datawriter has written: for the in-flight part of a reader's backlog.
 #[derive(Debug, Clone, Copy)]
@@ -243,6 +243,27 @@ struct ReaderState {
     /// Reliable QoS (its DDS history is KEEP_ALL: a sample of a matched writer of the agent arrives in order
     /// and is never dropped, so one queued ahead is exactly the next the writer sends it).
     reliable: bool,
+    /// Samples already taken from the bridge queue ([`Node::front`]).
+    local: VecDeque<ReceivedSample>,
+}
+
+/// A requester or replier and the samples already taken from its bridge queue ([`Node::front`]).
+struct Queued<T> {
+    service: T,
+    local: VecDeque<ReceivedSample>,
+}
+
+impl<T> Queued<T> {
+    fn new(service: T) -> Box<Self> {
+        Box::new(Self { service, local: VecDeque::new() })
+    }
+}
+
+impl<T> std::ops::Deref for Queued<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.service
+    }
 }
 
 /// The DDS side of an entity.
@@ -255,8 +276,8 @@ enum Handle {
     Writer(Box<WriterState>),
     Reader(Box<ReaderState>),
     // Boxed: rare and large; the common variants stay small (a node per entity, thousands of clients).
-    Requester(Box<Requester>),
-    Replier(Box<Replier>),
+    Requester(Box<Queued<Requester>>),
+    Replier(Box<Queued<Replier>>),
 }
 
 impl Handle {
@@ -269,6 +290,35 @@ impl Handle {
             _ => None,
         }
     }
+
+    /// The samples already taken from the bridge queue, for the same entities as [`Handle::queue`].
+    fn local(&self) -> Option<&VecDeque<ReceivedSample>> {
+        match self {
+            Handle::Reader(r) => Some(&r.local),
+            Handle::Requester(r) => Some(&r.local),
+            Handle::Replier(r) => Some(&r.local),
+            _ => None,
+        }
+    }
+
+    /// [`Handle::queue`] and [`Handle::local`] together.
+    fn queue_and_local(&mut self) -> Option<(&SampleQueue, &mut VecDeque<ReceivedSample>)> {
+        match self {
+            Handle::Reader(r) => {
+                let r = &mut **r;
+                Some((r.reader.queue(), &mut r.local))
+            }
+            Handle::Requester(r) => {
+                let r = &mut **r;
+                Some((r.service.replies(), &mut r.local))
+            }
+            Handle::Replier(r) => {
+                let r = &mut **r;
+                Some((r.service.requests(), &mut r.local))
+            }
+            _ => None,
+        }
+    }
 }
 
 struct Node {
@@ -276,9 +326,6 @@ struct Node {
     /// [`Spec::digest`] of what the entity was created from (for REUSE).
     spec: u64,
     handle: Handle,
-    /// Samples already taken from the bridge queue, in order, for the core (readers, requesters,
-    /// repliers); refilled [`TAKE_BATCH`] at a time.
-    local: VecDeque<ReceivedSample>,
 }
 
 impl Node {
@@ -288,11 +335,14 @@ impl Node {
     }
 
     /// The next sample for the core, refilling the local buffer from the bridge queue in batches.
+    /// Readers, requesters and repliers keep the samples taken from the bridge queue, in order, for the core;
+    /// refilled [`TAKE_BATCH`] at a time.
     fn front(&mut self) -> Option<&ReceivedSample> {
-        if self.local.is_empty() {
-            self.handle.queue()?.take_batch(TAKE_BATCH, &mut self.local);
+        let (queue, local) = self.handle.queue_and_local()?;
+        if local.is_empty() {
+            queue.take_batch(TAKE_BATCH, local);
         }
-        self.local.front()
+        local.front()
     }
 
     /// Samples of pinned reader `self` not yet taken by the core that count against `writer`'s writes:
@@ -311,7 +361,7 @@ impl Node {
             }
             (Some(_), None) => 0,
         };
-        queued + self.local.len() + usize::try_from(in_flight.max(0)).unwrap_or(usize::MAX)
+        queued + self.handle.local().map_or(0, VecDeque::len) + usize::try_from(in_flight.max(0)).unwrap_or(usize::MAX)
     }
 }
 
@@ -1091,7 +1141,7 @@ impl Dds {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let qos = &non_blocking(&self.with_group_partitions(parent, qos));
-                let topic = (p.key().domain_id, t.name());
+                let topic = (p.key().domain_id, t.shared_name());
                 let ahead = self.bridge.engine() == xrce_dds::Engine::FastDds
                     && qos.reliability == xrce_dds::Reliability::Reliable
                     && matches!(qos.history, xrce_dds::History::KeepLast(_))
@@ -1108,18 +1158,18 @@ impl Dds {
                 let (pref, p) = self.group_participant(parent)?;
                 let t = self.resolve_topic(entity.client, pref, &p, topic)?;
                 let qos = &self.with_group_partitions(parent, qos);
-                let topic = (p.key().domain_id, t.name());
+                let topic = (p.key().domain_id, t.shared_name());
                 let reliable = qos.reliability == xrce_dds::Reliability::Reliable;
                 let reader = p.create_reader(&t, qos).map_err(dds_error)?;
-                Handle::Reader(Box::new(ReaderState { reader, topic, reliable }))
+                Handle::Reader(Box::new(ReaderState { reader, topic, reliable, local: VecDeque::new() }))
             }
             (ObjectKind::Requester, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
-                Handle::Requester(Box::new(Requester::new(&p, desc, &non_blocking(qos)).map_err(dds_error)?))
+                Handle::Requester(Queued::new(Requester::new(&p, desc, &non_blocking(qos)).map_err(dds_error)?))
             }
             (ObjectKind::Replier, Spec::Service { desc, qos }) => {
                 let (_, p) = self.participant_of(parent)?;
-                Handle::Replier(Box::new(Replier::new(&p, desc, &non_blocking(qos)).map_err(dds_error)?))
+                Handle::Replier(Queued::new(Replier::new(&p, desc, &non_blocking(qos)).map_err(dds_error)?))
             }
             (kind, s) => return Err(invalid(format!("{kind:?} cannot be described as {s:?}"))),
         })
@@ -1131,7 +1181,7 @@ impl Middleware for Dds {
         self.flush_writes(creation.now);
         let spec = self.spec_of(creation)?;
         let handle = self.build(creation, &spec)?;
-        let node = Node { parent: creation.parent, spec: spec.digest(), handle, local: VecDeque::new() };
+        let node = Node { parent: creation.parent, spec: spec.digest(), handle };
         if let Some(old) = self.entities.get(&creation.entity) {
             self.graph_unlink(creation.entity, old);
         }
@@ -1300,18 +1350,24 @@ impl Middleware for Dds {
 
     fn poll_sample(&mut self, reader: EntityRef, visit: &mut SampleVisitor<'_>) -> Option<bool> {
         let node = self.entities.get_mut(&reader)?;
-        node.front()?;
-        let s = node.local.front()?;
-        let taken = match node.handle {
-            Handle::Replier(_) => visit(SampleRef::Request { identity: identity_to_xrce(&s.identity), data: &s.data }),
-            Handle::Requester(_) => {
+        let kind = match node.handle {
+            Handle::Replier(_) => ObjectKind::Replier,
+            Handle::Requester(_) => ObjectKind::Requester,
+            _ => ObjectKind::DataReader,
+        };
+        let s = node.front()?;
+        let taken = match kind {
+            ObjectKind::Replier => visit(SampleRef::Request { identity: identity_to_xrce(&s.identity), data: &s.data }),
+            ObjectKind::Requester => {
                 let id = s.request_id.and_then(|id| u16::try_from(id).ok()).unwrap_or(0);
                 visit(SampleRef::Reply { request_id: RequestId(id), data: &s.data })
             }
             _ => visit(SampleRef::Data(&s.data)),
         };
         if taken {
-            node.local.pop_front();
+            if let Some((_, local)) = node.handle.queue_and_local() {
+                local.pop_front();
+            }
         }
         Some(taken)
     }
@@ -1389,6 +1445,14 @@ mod tests {
     use super::*;
     use xrce_dds::{Durability, History, Reliability};
     use xrce_proto::object::{EndpointQos as BinaryQos, QosFlags};
+
+    #[test]
+    fn an_entity_node_stays_small() {
+        // A node per entity, four or more per client, 10,000 idle clients: every byte here counts 40,000 times
+        // (issue 22: ≤ 2 KiB per idle client). Large or rare parts are boxed in the handle.
+        assert!(std::mem::size_of::<Handle>() <= 24, "handle: {} B", std::mem::size_of::<Handle>());
+        assert!(std::mem::size_of::<Node>() <= 48, "node: {} B", std::mem::size_of::<Node>());
+    }
 
     #[test]
     fn after_the_match_a_gate_lets_depth_writes_go_then_waits_for_the_acknowledgements() {
