@@ -239,6 +239,10 @@ struct SessionsArgs {
     /// pools) are not counted per client; the table shows both figures.
     #[arg(long, default_value_t = 1)]
     warmup: usize,
+    /// How long the agent is left alone after the last client before its RSS is sampled (idle streams
+    /// trimmed, expired first-contact gates dropped once a second).
+    #[arg(long, default_value = "300ms", value_parser = parse_duration)]
+    settle: Duration,
     /// The agent's PID: report its RSS growth per client.
     #[arg(long)]
     agent_pid: Option<u32>,
@@ -465,6 +469,7 @@ fn sessions_cmd(a: &SessionsArgs) -> Result<(), BenchError> {
     cfg.mtu = a.mtu;
     cfg.timeout = a.timeout;
     cfg.agent_pid = a.agent_pid;
+    cfg.settle = a.settle;
     cfg.delete = !a.keep;
     cfg.warmup = a.warmup;
     cfg.named = a.named;

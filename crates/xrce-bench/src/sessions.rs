@@ -8,7 +8,7 @@
 //! the memory was measured, then are deleted (unless asked not to).
 
 use std::net::{SocketAddr, UdpSocket};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Barrier, Mutex};
 use std::time::{Duration, Instant};
 
@@ -40,6 +40,10 @@ pub struct SessionsConfig {
     /// Clients created (and kept) before the first RSS sample, so one-off costs (a DDS participant, the
     /// shared topic, pools, code pages) are not counted per client; 0 counts everything.
     pub warmup: usize,
+    /// How long the agent is left alone after the last client before its RSS is sampled: what an idle
+    /// client costs once the agent's periodic work (trimming idle streams, dropping expired first-contact
+    /// gates) has run.
+    pub settle: Duration,
     /// Delete the sessions at the end.
     pub delete: bool,
     /// Name every participant (`node_<client key>`, all distinct), as micro-ROS does: with the DDS
@@ -61,6 +65,7 @@ impl SessionsConfig {
             timeout: Duration::from_secs(10),
             agent_pid: None,
             warmup: 1,
+            settle: Duration::from_millis(300),
             delete: true,
             named: false,
             run: crate::run_id(),
@@ -261,6 +266,7 @@ fn worker(
     topic: &str,
     done: &AtomicU64,
     finished: &AtomicUsize,
+    measured: &AtomicBool,
     barrier: &Barrier,
     out: &Mutex<Vec<WorkerResult>>,
 ) {
@@ -314,7 +320,21 @@ fn worker(
         }
     }
     finished.fetch_add(1, Ordering::Relaxed);
-    // Keep every session open while the main thread measures the agent.
+    // Keep every session open, and alive as an idle micro-ROS node keeps it (its executor spinning: the
+    // agent's heartbeats answered, so it can let go of what it kept for retransmission), while the main
+    // thread measures the agent.
+    while !measured.load(Ordering::Relaxed) {
+        let now = clock.now_nanos();
+        for slot in slots.iter_mut().filter(|s| s.stage == Stage::Done) {
+            while let Ok(Some(n)) = recv_result(slot.sock.recv(&mut rx)) {
+                slot.core.handle_input(rx.get(..n).unwrap_or(&[]), now, &mut slot.track);
+            }
+            while let Some(n) = slot.core.poll_transmit(now, &mut tx) {
+                let _ = slot.sock.send(tx.get(..n).unwrap_or(&[]));
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
     barrier.wait();
     barrier.wait();
     if cfg.delete {
@@ -366,6 +386,7 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
     let workers = cfg.workers.min(cfg.clients);
     let done = AtomicU64::new(0);
     let finished = AtomicUsize::new(0);
+    let measured = AtomicBool::new(false);
     let warm_done = AtomicU64::new(0);
     let warm_finished = AtomicUsize::new(0);
     let warm_results = Mutex::new(Vec::new());
@@ -374,9 +395,9 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
     let (elapsed, before, after, agent) = std::thread::scope(|s| {
         // Warm-up clients (indices after the measured ones) first, kept alive like the others.
         let warm = (warmup > 0).then(|| {
-            let (topic, done, finished, barrier, results) =
-                (&topic, &warm_done, &warm_finished, &barrier, &warm_results);
-            s.spawn(move || worker(cfg, cfg.clients, warmup, topic, done, finished, barrier, results))
+            let (topic, done, finished, measured, barrier, results) =
+                (&topic, &warm_done, &warm_finished, &measured, &barrier, &warm_results);
+            s.spawn(move || worker(cfg, cfg.clients, warmup, topic, done, finished, measured, barrier, results))
         });
         let warm_until = Instant::now() + cfg.timeout + Duration::from_secs(1);
         while warm.is_some() && warm_finished.load(Ordering::Relaxed) == 0 && Instant::now() < warm_until {
@@ -396,8 +417,9 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
             .map(|w| {
                 let first = cfg.clients * w / workers;
                 let count = cfg.clients * (w + 1) / workers - first;
-                let (topic, done, finished, barrier, results) = (&topic, &done, &finished, &barrier, &results);
-                s.spawn(move || worker(cfg, first, count, topic, done, finished, barrier, results))
+                let (topic, done, finished, measured, barrier, results) =
+                    (&topic, &done, &finished, &measured, &barrier, &results);
+                s.spawn(move || worker(cfg, first, count, topic, done, finished, measured, barrier, results))
             })
             .collect();
         // Workers never fail before the barrier: each client failure is counted, not returned.
@@ -411,10 +433,11 @@ pub fn run(cfg: &SessionsConfig, on_progress: &(dyn Fn(f64) + Sync)) -> Result<S
         }
         let elapsed = start.elapsed();
         let after = cfg.agent_pid.map(|pid| {
-            std::thread::sleep(Duration::from_millis(300));
+            std::thread::sleep(cfg.settle);
             procstat::sample(pid)
         });
         let agent = monitor.map(|m| m.and_then(Monitor::stop));
+        measured.store(true, Ordering::Relaxed);
         barrier.wait();
         barrier.wait();
         for h in handles.into_iter().chain(warm) {

@@ -282,17 +282,15 @@ impl<E: Copy + Eq + Hash + Debug> Connection<E> {
             self.pin_readers(ctx, false);
         }
         self.trim_idle_buffers();
+        // A dead client's streams too: what it has not acknowledged stays for retransmission, its empty
+        // queues go.
+        for (_, stream) in self.streams.rel_out.iter_mut() {
+            stream.trim();
+        }
         // A dead client gets liveness probes instead ([`liveness`](super::liveness)).
         if !dead {
-            let beats: Vec<u8> = self
-                .streams
-                .rel_out
-                .iter_mut()
-                .filter_map(|(sid, stream)| {
-                    stream.trim();
-                    stream.has_unacked().then_some(*sid)
-                })
-                .collect();
+            let beats: Vec<u8> =
+                self.streams.rel_out.iter().filter_map(|(sid, stream)| stream.has_unacked().then_some(*sid)).collect();
             if !beats.is_empty() {
                 self.timers.set(Timer::Heartbeat, now + config.heartbeat_period);
             }

@@ -185,6 +185,16 @@ pub const REPLY_MATCH_WAIT: Duration = Duration::from_millis(500);
 /// fewer saves CPU time while ROS nodes come and go (docs/dds-engine.md, issue 21).
 pub const DEFAULT_PARTICIPANT_RETIRE_AFTER: Duration = Duration::from_secs(10);
 
+/// How often [`Middleware::poll`] drops the gates of endpoints that never wrote and whose every bound has
+/// passed ([`GATE_EXPIRED`]): such a gate would open at the first write anyway, and an idle client's would
+/// otherwise stay for its life (72 B in a table of every gate, which keeps its largest size: ~120 B per
+/// client after 10,000 clients connected at once, issue 22).
+const GATE_SWEEP: Duration = Duration::from_secs(1);
+
+/// Age after which a gate holds nothing any more: its longest bound ([`FIRST_CONTACT_DISCOVERY_LIMIT`]) plus
+/// the acknowledgement watch's shorter one after a late match, with room to spare.
+const GATE_EXPIRED: Duration = Duration::from_secs(5);
+
 /// How often [`Middleware::poll`] looks whether the default participant can be retired.
 const DEFAULT_PARTICIPANT_CHECK: Duration = Duration::from_secs(1);
 
@@ -469,6 +479,8 @@ pub struct Dds {
     /// Repliers holding a reply until its requester's reply reader is matched: since when.
     replies_held: HashMap<EntityRef, Instant>,
     gate_timer: GateTimer,
+    /// When [`Middleware::poll`] last dropped the gates of writers that never wrote ([`GATE_SWEEP`]).
+    gates_swept_at: Option<Instant>,
     /// The default domain's DDS participant, created with the middleware when asked
     /// ([`Dds::with_eager_participant`]) and while the domain has no older participant that knows as much.
     eager: Option<Participant>,
@@ -581,6 +593,7 @@ impl Dds {
             held: HashMap::new(),
             replies_held: HashMap::new(),
             gate_timer: GateTimer::default(),
+            gates_swept_at: None,
             eager: None,
             eager_retired: false,
             eager_check_at: None,
@@ -917,6 +930,23 @@ impl Dds {
                 Acks::Pending { depth: usize::try_from(depth.max(1)).unwrap_or(usize::MAX) }
             }
             _ => Acks::Unwatched,
+        }
+    }
+
+    /// Drops the expired gates of endpoints without held samples, at most every [`GATE_SWEEP`], and gives the
+    /// table's room back once it is mostly empty.
+    fn sweep_gates(&mut self, now: Instant) {
+        if self.gates_swept_at.is_some_and(|at| now.saturating_duration_since(at) < GATE_SWEEP) {
+            return;
+        }
+        self.gates_swept_at = Some(now);
+        let held = &self.held;
+        self.gates.retain(|e, g| now.saturating_duration_since(g.created) < GATE_EXPIRED || held.contains_key(e));
+        if self.gates.len().saturating_mul(4) < self.gates.capacity() {
+            self.gates.shrink_to_fit();
+        }
+        if self.gates.is_empty() && self.held.is_empty() {
+            self.gate_timer.disarm();
         }
     }
 
@@ -1274,6 +1304,7 @@ impl Middleware for Dds {
 
     fn poll(&mut self, now: Instant) {
         self.retire_default_participant(now);
+        self.sweep_gates(now);
         if self.held.is_empty() {
             return;
         }
