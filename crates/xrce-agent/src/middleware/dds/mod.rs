@@ -1478,6 +1478,36 @@ mod tests {
     use xrce_proto::object::{EndpointQos as BinaryQos, QosFlags};
 
     #[test]
+    fn expired_gates_of_endpoints_that_never_wrote_go_and_their_table_shrinks() {
+        let profiles = Arc::new(crate::middleware::profiles::StoreProfiles::new());
+        let mut dds = Dds::new(profiles);
+        let start = Instant::now();
+        let gate = |created| Gate { created, short: FIRST_CONTACT_GATE, acks: Acks::Unwatched };
+        for id in 0..1_000u16 {
+            let e = EntityRef {
+                client: ClientKey(u32::from(id).to_be_bytes()),
+                id: xrce_proto::types::ObjectId::new(id, ObjectKind::DataWriter),
+            };
+            dds.gates.insert(e, gate(start));
+        }
+        let young = EntityRef {
+            client: ClientKey(7_000u32.to_be_bytes()),
+            id: xrce_proto::types::ObjectId::new(1, ObjectKind::DataWriter),
+        };
+        let swept = start + GATE_EXPIRED + Duration::from_millis(1);
+        dds.gates.insert(young, gate(swept - GATE_EXPIRED + Duration::from_millis(500)));
+        let big = dds.gates.capacity();
+        dds.sweep_gates(swept);
+        assert_eq!(dds.gates.keys().copied().collect::<Vec<_>>(), vec![young], "only the young gate stays");
+        assert!(dds.gates.capacity() < big / 4, "the table gave its room back ({} of {big})", dds.gates.capacity());
+        // At most once per GATE_SWEEP.
+        dds.sweep_gates(swept + Duration::from_millis(600));
+        assert_eq!(dds.gates.len(), 1, "expired now, but swept only a second later");
+        dds.sweep_gates(swept + GATE_SWEEP);
+        assert!(dds.gates.is_empty());
+    }
+
+    #[test]
     fn an_entity_node_stays_small() {
         // A node per entity, four or more per client, 10,000 idle clients: every byte here counts 40,000 times
         // (issue 22: ≤ 2 KiB per idle client). Large or rare parts are boxed in the handle.
