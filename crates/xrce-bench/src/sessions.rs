@@ -258,6 +258,16 @@ fn step(
     progress
 }
 
+/// Hands every datagram waiting on a finished client's socket to its session; whether there was any.
+fn receive_all(slot: &mut Slot<'_>, now: i64, rx: &mut [u8]) -> bool {
+    let mut any = false;
+    while let Ok(Some(n)) = recv_result(slot.sock.recv(rx)) {
+        slot.core.handle_input(rx.get(..n).unwrap_or(&[]), now, &mut slot.track);
+        any = true;
+    }
+    any
+}
+
 #[allow(clippy::too_many_arguments)]
 fn worker(
     cfg: &SessionsConfig,
@@ -326,9 +336,7 @@ fn worker(
     while !measured.load(Ordering::Relaxed) {
         let now = clock.now_nanos();
         for slot in slots.iter_mut().filter(|s| s.stage == Stage::Done) {
-            while let Ok(Some(n)) = recv_result(slot.sock.recv(&mut rx)) {
-                slot.core.handle_input(rx.get(..n).unwrap_or(&[]), now, &mut slot.track);
-            }
+            receive_all(slot, now, &mut rx);
             while let Some(n) = slot.core.poll_transmit(now, &mut tx) {
                 let _ = slot.sock.send(tx.get(..n).unwrap_or(&[]));
             }
@@ -354,10 +362,7 @@ fn worker(
             let mut progress = false;
             deleting.retain(|&i| {
                 let Some(slot) = slots.get_mut(i) else { return false };
-                while let Ok(Some(n)) = recv_result(slot.sock.recv(&mut rx)) {
-                    slot.core.handle_input(rx.get(..n).unwrap_or(&[]), clock.now_nanos(), &mut slot.track);
-                    progress = true;
-                }
+                progress |= receive_all(slot, clock.now_nanos(), &mut rx);
                 if slot.core.state() == SessionState::Deleted {
                     result.deleted += 1;
                     false

@@ -945,14 +945,17 @@ impl Dds {
         if self.gates.len().saturating_mul(4) < self.gates.capacity() {
             self.gates.shrink_to_fit();
         }
-        if self.gates.is_empty() && self.held.is_empty() {
-            self.gate_timer.disarm();
-        }
+        self.disarm_gate_timer_if_idle();
     }
 
     /// Forgets `entity`'s gate.
     fn close_gate(&mut self, entity: EntityRef) {
         self.gates.remove(&entity);
+        self.disarm_gate_timer_if_idle();
+    }
+
+    /// The gate timer runs only while a gate or a held sample waits.
+    fn disarm_gate_timer_if_idle(&mut self) {
         if self.gates.is_empty() && self.held.is_empty() {
             self.gate_timer.disarm();
         }
