@@ -33,13 +33,6 @@ impl BufPool {
         self.free.pop().unwrap_or_else(|| self.create(256))
     }
 
-    /// A buffer holding a copy of `bytes`.
-    pub fn copy_of(&mut self, bytes: &[u8]) -> Vec<u8> {
-        let mut v = self.get();
-        v.extend_from_slice(bytes);
-        v
-    }
-
     /// An empty buffer for `len` bytes. A free buffer much larger than needed is shrunk first, so buffers
     /// kept for a while (samples in a topic) never hold small data in large allocations; with data of one
     /// size, as usual, nothing is allocated once warm.

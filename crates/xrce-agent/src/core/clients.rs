@@ -164,7 +164,7 @@ where
                     if let Some(nonce) = token {
                         self.accept_token(rep.client_key, nonce);
                     }
-                    self.suspect_endpoint_peers(from, rep.client_key, now);
+                    self.suspect_endpoint_peers(from, rep.client_key, rep.session_id, now);
                 } else {
                     if let Some(held_back) = self.drop_log.admit(from, now) {
                         tracing::warn!(peer = ?from, client = %rep.client_key, status = status.name(), held_back, "CREATE_CLIENT refused");

@@ -344,3 +344,31 @@ fn with_authentication_a_known_key_is_not_taken_over_from_another_address() {
     core.handle_datagram(9, &create(A, 0x01, &[]), t1 + 2 * SECOND);
     assert_eq!(status_agent(&mut core), vec![(9, StatusCode::OK)]);
 }
+
+/// What a client costs the core's tables: keyless sessions (eProsima's default) are not recorded per
+/// endpoint twice, and the timer queue stays within 1.5 entries per client however often timers move.
+#[test]
+fn the_core_tables_hold_no_more_than_a_client_needs() {
+    let mut core = core_with(CoreConfig::default());
+    let t0 = Instant::now();
+    for port in 0..200u16 {
+        core.handle_datagram(port, &create(0x1000_0000 + u32::from(port), 0x81, &[]), t0);
+    }
+    assert_eq!(core.created_from.len(), 0, "keyless sessions are found through their endpoint");
+    for port in 200..210u16 {
+        core.handle_datagram(port, &create(0x1000_0000 + u32::from(port), 0x01, &[]), t0);
+    }
+    assert_eq!(core.created_from.len(), 10, "keyed sessions are recorded");
+    // Every client's timer moves earlier many times: each reliable reply arms a probe before the heartbeat
+    // already queued, leaving a stale entry behind.
+    for step in 1..40u32 {
+        let now = t0 + Duration::from_millis(u64::from(step) * 10);
+        for port in 0..200u16 {
+            create_participant_reliably(&mut core, port, 0x1000_0000 + u32::from(port), 0x81, now);
+        }
+        core.handle_timeout(now);
+        sent(&mut core);
+        let clients = core.clients.len();
+        assert!(core.timers.len() <= clients + clients / 2 + 64, "{} entries, {clients} clients", core.timers.len());
+    }
+}

@@ -55,6 +55,7 @@ pub use config::{
     DEFAULT_MAX_LIVELINESS_PROBES, DEFAULT_RELIABLE_WINDOW, DEFAULT_SUSPECT_GRACE,
 };
 use connection::{Connection, Ctx, Liveness};
+use probe::TimerTick;
 pub use snapshot::{AgentSnapshot, ClientSnapshot, EntityCounts, SnapshotBoard, StreamSnapshot};
 pub use stats::{ClientCounters, CoreStats, DatagramDrops, DropReason, RemoveReason};
 
@@ -107,7 +108,8 @@ pub struct AgentCore<E, M> {
     /// Clients owing ACKNACKs, in turn order.
     acking: VecDeque<ClientKey>,
     /// Each client's next timer, earliest first; an entry that no longer matches its client's is stale.
-    timers: BinaryHeap<Reverse<(Instant, ClientKey)>>,
+    /// Instants as [`TimerTick`]s: 16 B an entry instead of 24.
+    timers: BinaryHeap<Reverse<(TimerTick, ClientKey)>>,
     /// Clients with read tasks, whose readers the middleware may have samples for.
     reading: Vec<ClientKey>,
     /// Clients with reliable input held back until the middleware can take its writes.
@@ -259,7 +261,7 @@ where
     /// The next instant [`Self::handle_timeout`] must be called, if any (work the middleware put off until
     /// [`Self::after_send`] counts as due).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let timer = self.timers.peek().map(|Reverse((due, _))| *due);
+        let timer = self.timers.peek().map(|Reverse((due, _))| due.instant());
         let publish = self.publisher.as_ref().map(|p| p.next);
         [timer, self.middleware.flush_due(), publish].into_iter().flatten().min()
     }
@@ -279,12 +281,12 @@ where
         // next call, so a turn cannot loop).
         let mut due_now = Vec::new();
         while let Some(Reverse((due, key))) = self.timers.peek().copied() {
-            if due > now {
+            if due.instant() > now {
                 break;
             }
             self.timers.pop();
             let Some(client) = self.clients.get_mut(&key) else { continue };
-            if client.timer_queued != Some(due) {
+            if !due.matches(client.timer_queued) {
                 continue; // stale: an earlier entry was queued for this client since
             }
             client.timer_queued = None;
@@ -522,20 +524,30 @@ where
         self.purge_timers();
     }
 
-    fn queue_timer(timers: &mut BinaryHeap<Reverse<(Instant, ClientKey)>>, key: ClientKey, client: &mut Connection<E>) {
+    fn queue_timer(
+        timers: &mut BinaryHeap<Reverse<(TimerTick, ClientKey)>>,
+        key: ClientKey,
+        client: &mut Connection<E>,
+    ) {
         let Some(due) = client.poll_timeout() else { return };
         if client.timer_queued.is_some_and(|queued| queued <= due) {
             return;
         }
         client.timer_queued = Some(due);
-        timers.push(Reverse((due, key)));
+        timers.push(Reverse((TimerTick::of(due), key)));
     }
 
     fn purge_timers(&mut self) {
-        // Stale entries are dropped when they come due; past four per client the heap is rebuilt.
-        if self.timers.len() > 4 * self.clients.len() + 1024 {
+        // Stale entries are dropped when they come due; past half as many again as there are clients the heap
+        // is rebuilt (amortized: one O(n) pass per n/2 pushes). So the heap never needs more than 1.5 entries
+        // per client, and its spare capacity after a burst of clients is given back: at 10,000 clients the
+        // heap stays in 16,384 slots (393 kB) instead of growing to 32,768 (786 kB).
+        if self.timers.len() > self.clients.len() + self.clients.len() / 2 + 64 {
             let clients = &self.clients;
-            self.timers.retain(|Reverse((due, key))| clients.get(key).is_some_and(|c| c.timer_queued == Some(*due)));
+            self.timers.retain(|Reverse((due, key))| clients.get(key).is_some_and(|c| due.matches(c.timer_queued)));
+            if self.timers.capacity() > 4 * self.timers.len() + 1024 {
+                self.timers.shrink_to(2 * self.timers.len());
+            }
         }
     }
 

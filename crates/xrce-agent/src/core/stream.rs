@@ -256,6 +256,11 @@ struct Flight {
     resent: bool,
 }
 
+/// A length in a stream's counters (a queue holds far less than 4 GiB; saturates rather than wraps).
+fn as_u32(len: usize) -> u32 {
+    u32::try_from(len).unwrap_or(u32::MAX)
+}
+
 /// The messages in flight as the engine sees them: `first` is the oldest's sequence number.
 struct FlightLog<'a> {
     first: SeqNum,
@@ -298,12 +303,13 @@ pub struct ReliableOut {
     /// Submessages waiting for room in the window.
     pending: VecDeque<Waiting>,
     /// Messages `pending` will take (a submessage cut into FRAGMENTs takes one per chunk left).
-    pending_msgs: usize,
+    pending_msgs: u32,
     /// Bytes in `pending` not yet sent.
-    pending_bytes: usize,
-    max_pending: usize,
+    pending_bytes: u32,
+    max_pending: u32,
     /// `first_unacked` when last checked with unacknowledged messages, and since when it has not moved.
-    watch: Option<(u16, std::time::Instant)>,
+    /// (The engine's instant: 8 bytes where an `Instant` takes 16.)
+    watch: Option<(u16, reliable::Instant)>,
     /// The latest time seen, for messages sent without one.
     clock: reliable::Instant,
     /// New messages built (retransmissions not included).
@@ -324,7 +330,7 @@ impl ReliableOut {
             pending: VecDeque::new(),
             pending_msgs: 0,
             pending_bytes: 0,
-            max_pending,
+            max_pending: u32::try_from(max_pending).unwrap_or(u32::MAX),
             watch: None,
             clock: reliable::Instant(0),
             messages: 0,
@@ -339,7 +345,7 @@ impl ReliableOut {
 
     /// Messages that can still be queued.
     pub fn room(&self) -> usize {
-        self.max_pending.saturating_sub(self.pending_msgs)
+        self.max_pending.saturating_sub(self.pending_msgs) as usize
     }
 
     /// Messages in flight (unacknowledged), and the window's size.
@@ -359,9 +365,9 @@ impl ReliableOut {
     pub fn can_take(&self, mtu: usize) -> bool {
         let free = usize::from(self.window).saturating_sub(self.in_flight.len());
         if mtu == 0 {
-            self.pending_msgs < free
+            (self.pending_msgs as usize) < free
         } else {
-            self.pending_bytes < free.saturating_mul(mtu)
+            (self.pending_bytes as usize) < free.saturating_mul(mtu)
         }
     }
 
@@ -391,8 +397,8 @@ impl ReliableOut {
         if self.room() == 0 {
             return false;
         }
-        self.pending_msgs += 1;
-        self.pending_bytes += sub.len();
+        self.pending_msgs = self.pending_msgs.saturating_add(1);
+        self.pending_bytes = self.pending_bytes.saturating_add(as_u32(sub.len()));
         self.pending.push_back(Waiting { sub, cut: None });
         true
     }
@@ -404,8 +410,9 @@ impl ReliableOut {
         if count > self.room() {
             return false;
         }
-        self.pending_msgs += count;
-        self.pending_bytes += sub.len();
+        // `count` ≤ `room()`, itself a u32.
+        self.pending_msgs = self.pending_msgs.saturating_add(u32::try_from(count).unwrap_or(u32::MAX));
+        self.pending_bytes = self.pending_bytes.saturating_add(as_u32(sub.len()));
         self.pending.push_back(Waiting { cut: Some(plan.chunks(sub.len())), sub });
         true
     }
@@ -466,7 +473,7 @@ impl ReliableOut {
             buf.extend_from_slice(&head.to_bytes());
             buf.extend_from_slice(part);
             self.pending_msgs = self.pending_msgs.saturating_sub(1);
-            self.pending_bytes = self.pending_bytes.saturating_sub(c.len);
+            self.pending_bytes = self.pending_bytes.saturating_sub(as_u32(c.len));
             if c.last {
                 if let Some(done) = self.pending.pop_front() {
                     pool.put(done.sub);
@@ -483,13 +490,15 @@ impl ReliableOut {
                 first = false;
                 let Some(next) = self.pending.pop_front() else { break };
                 self.pending_msgs = self.pending_msgs.saturating_sub(1);
-                self.pending_bytes = self.pending_bytes.saturating_sub(next.sub.len());
+                self.pending_bytes = self.pending_bytes.saturating_sub(as_u32(next.sub.len()));
                 buf.resize(at, 0);
                 buf.extend_from_slice(&next.sub);
                 pool.put(next.sub);
             }
         }
-        let msg = pool.copy_of(buf);
+        // Fitted: a message stays here until acknowledged, and thousands of clients each holding a small
+        // STATUS in a 256-byte buffer after a connection burst leave that much heap in holes once freed.
+        let msg = pool.copy_fitted(buf);
         self.in_flight.push_back(Flight { msg, sent: clock, resent: false });
         bump(&mut self.messages);
         let (sender, mut log) = self.log();
@@ -531,9 +540,9 @@ impl ReliableOut {
         }
         let first = self.first_unacked();
         match self.watch {
-            Some((f, since)) if f == first => now.saturating_duration_since(since),
+            Some((f, since)) if f == first => now.saturating_duration_since(from_engine(since)),
             _ => {
-                self.watch = Some((first, now));
+                self.watch = Some((first, to_engine(now)));
                 std::time::Duration::ZERO
             }
         }
