@@ -825,8 +825,8 @@ fn some_array_has(lines: &[Value], want: &[(u64, &str)]) -> bool {
 
 /// ROS 2 `/diagnostics` (issue 22): the agent publishes a DiagnosticArray every second that the real rclpy node
 /// reads, one status for the agent and one per client named after its node: OK for a live micro-ROS-like node,
-/// ERROR for a node gone silent while the agent probes it (`--client-timeout 3`: probed from 1.5 s), then
-/// STALE once it is removed.
+/// WARN for a node whose datagrams the agent drops (out of order), ERROR for a node gone silent while the
+/// agent probes it (`--client-timeout 3`: probed from 1.5 s), then STALE once it is removed.
 #[test]
 #[ignore = "needs XRCE_ROS_VENV=<dir> (.ci/ros2-venv.sh) and shared/dds-peers/netns.sh"]
 fn diagnostics_show_each_client_with_its_level() {
@@ -838,21 +838,88 @@ fn diagnostics_show_each_client_with_its_level() {
     // Publishing keeps it busy (and its session alive) for 10 s.
     plan.publish = Some(PubPlan { topic: "diag_chatter".into(), count: 100, period_ms: 100, max_warmup: 0 });
     let alive = Client::micro_ros_started(plan);
+    let dropping = std::thread::spawn(|| named_participant_dropping(PORT, 0x0007_0003, "uros_diag_drops", 12));
     named_participant_then_silence(PORT, 0x0007_0002, "uros_diag_silent");
     let (agent, ok, silent) = ("xrce_agent: agent", "xrce_agent: uros_diag_alive", "xrce_agent: uros_diag_silent");
+    let drops = "xrce_agent: uros_diag_drops";
     ros.gather_until(Duration::from_secs(25), |seen| {
-        some_array_has(seen, &[(0, agent), (0, ok), (2, silent)]) && some_array_has(seen, &[(0, ok), (3, silent)])
+        some_array_has(seen, &[(0, agent), (0, ok), (2, silent)])
+            && some_array_has(seen, &[(0, ok), (3, silent)])
+            && some_array_has(seen, &[(1, drops)])
     });
     let _ = alive.finish(Duration::from_secs(20));
+    let dropped = dropping.join().expect("the dropping client");
     let lines = ros.stop();
     let arrays = lines.iter().filter(|v| v["event"] == "diagnostics").count();
     let live_and_probed = some_array_has(&lines, &[(0, agent), (0, ok), (2, silent)]);
     let stale = some_array_has(&lines, &[(0, ok), (3, silent)]);
+    let warned = some_array_has(&lines, &[(1, drops)]);
     let levels: Vec<Vec<(u64, String)>> = lines.iter().map(diagnostic_levels).filter(|l| !l.is_empty()).collect();
-    println!("ROS2-SUMMARY diagnostics arrays={arrays} ok_and_error={live_and_probed} stale={stale}");
+    println!(
+        "ROS2-SUMMARY diagnostics arrays={arrays} ok_and_error={live_and_probed} stale={stale} warn={warned} \
+         dropped_sent={dropped}"
+    );
     assert!(arrays >= 2, "arrays at 1 Hz reach the ROS node: {arrays}");
     assert!(live_and_probed, "agent OK, live node OK, silent node ERROR in one array: {levels:?}");
     assert!(stale, "the silent node STALE once removed: {levels:?}");
+    assert!(warned, "the node whose datagrams are dropped WARN: {levels:?}");
+}
+
+/// A UDP link to the agent whose socket the test also writes to directly.
+struct TwinUdp(std::net::UdpSocket);
+
+impl xrce_client::Transport for TwinUdp {
+    fn send(&mut self, msg: &[u8]) -> Result<(), xrce_client::TransportError> {
+        self.0.send(msg)?;
+        Ok(())
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, xrce_client::TransportError> {
+        let wait = Duration::from_millis(u64::try_from(timeout_ms.max(1)).unwrap_or(1));
+        self.0.set_read_timeout(Some(wait))?;
+        match self.0.recv(buf) {
+            Ok(n) => Ok(Some(n)),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => Ok(None),
+            Err(e) => Err(e.into()),
+        }
+    }
+}
+
+/// A micro-ROS-like client that creates a participant named `node`, then for `seconds` keeps its session alive
+/// and, from its own address, sends every 200 ms a best-effort message older than the one before it (which the
+/// agent drops as out of order, counted for this client). Returns how many such messages it sent.
+fn named_participant_dropping(port: u16, key: u32, node: &str, seconds: u64) -> u32 {
+    use xrce_client::prelude::*;
+    use xrce_proto::{message, submessage::Heartbeat, ClientKey, Endianness, MessageHeader, Submessage};
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    socket.connect(("127.0.0.1", port)).expect("connect");
+    let raw = socket.try_clone().expect("clone");
+    let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
+    let mut session = Session::new(TwinUdp(socket), key);
+    session.create_session().expect("session");
+    let out = session.create_output_reliable_stream(&mut out_buf, 4).expect("out stream");
+    session.create_input_reliable_stream(&mut in_buf, 4).expect("in stream");
+    let p = object_id(1, ObjectKind::Participant);
+    let req = session.buffer_create_participant_bin(out, p, 0, Some(node), REUSE | REPLACE).expect("participant");
+    let mut status = [0u8; 1];
+    assert!(session.run_session_until_all_status(5000, &[req], &mut status).expect("run"), "create: {status:?}");
+    let until = Instant::now() + Duration::from_secs(seconds);
+    let (mut seq, mut dropped) = (10u16, 0u32);
+    while Instant::now() < until {
+        for s in [seq, seq - 1] {
+            // The session's own header (0x81: keyless), best-effort input stream 1.
+            let header = MessageHeader::new(0x81, xrce_proto::StreamId(1), s, ClientKey::INVALID);
+            let hb = Heartbeat { first_unacked_seq_nr: 0, last_unacked_seq_nr: 0, stream_id: 0x80 };
+            let mut buf = [0u8; 64];
+            let n = message::encode_single(&mut buf, &header, &Submessage::Heartbeat(hb), Endianness::Little)
+                .expect("encode");
+            raw.send(&buf[..n]).expect("send");
+        }
+        dropped += 1;
+        seq += 2;
+        let _ = session.run_session_time(200);
+    }
+    dropped
 }
 
 /// A micro-ROS-like client that creates a participant named `node`, then goes silent without deleting its
