@@ -611,6 +611,7 @@ fn slow_xrce_subscriber_holds_a_fast_xrce_publisher_back_without_loss() {
     let deadline = Instant::now() + Duration::from_secs(60);
     let t0 = Instant::now();
     let (mut last_got, mut got_at) = (0, Instant::now());
+    let mut most_without_credit = 0;
     loop {
         // Publisher: as fast as its window allows (the agent acknowledges within `send`), up to 2,000
         // samples per round, ten times what the subscriber takes in one.
@@ -659,6 +660,11 @@ fn slow_xrce_subscriber_holds_a_fast_xrce_publisher_back_without_loss() {
         h.core.handle_timeout(Instant::now());
         h.drain();
         let got = data_count(&h);
+        if got > 0 {
+            // The first-contact gate is open by now: what is counted is the slow reader holding the writer.
+            let without_credit = h.core.snapshot(Instant::now()).middleware.writers_without_credit;
+            most_without_credit = most_without_credit.max(without_credit);
+        }
         if got != last_got {
             (last_got, got_at) = (got, Instant::now());
         }
@@ -677,6 +683,10 @@ fn slow_xrce_subscriber_holds_a_fast_xrce_publisher_back_without_loss() {
     assert_eq!(written, N, "the publisher wrote everything");
     assert_eq!(ids, (0..N).collect::<Vec<_>>(), "every sample, once, in order");
     assert!(window_full > 0, "the publisher was held back (its window filled)");
+    // The snapshot's "writers without credit" shows the publisher's writer while it is held back, then not.
+    assert_eq!(most_without_credit, 1, "the writer held back by the slow reader counted");
+    let after = h.core.snapshot(Instant::now()).middleware.writers_without_credit;
+    assert_eq!(after, 0, "no writer without credit once everything went");
 }
 
 /// Each XRCE participant name gets its own DDS participant, the same name shares it, and past the limit a new

@@ -474,6 +474,10 @@ pub struct Dds {
     graph: Option<RosGraph>,
     /// Datawriters, requesters and repliers still at their first-contact gate.
     gates: HashMap<EntityRef, Gate>,
+    /// Writers whose credit was 0 when the core last asked ([`Middleware::write_credit`]): the core holds their
+    /// clients' reliable input and asks again until they have credit. What the snapshot counts as "writers
+    /// without credit" (gated, or a full backlog behind the agent's own slowest reliable reader).
+    without_credit: HashSet<EntityRef>,
     /// Best-effort samples written to a datawriter at its gate, replayed once it opens.
     held: HashMap<EntityRef, HeldSamples>,
     /// Repliers holding a reply until its requester's reply reader is matched: since when.
@@ -590,6 +594,7 @@ impl Dds {
             pinned: HashSet::new(),
             graph: RosGraph::new(RosGraphMode::default()),
             gates: HashMap::new(),
+            without_credit: HashSet::default(),
             held: HashMap::new(),
             replies_held: HashMap::new(),
             gate_timer: GateTimer::default(),
@@ -933,6 +938,35 @@ impl Dds {
         }
     }
 
+    /// The writer's credit now: 0 while its first-contact gate holds it, else the room left in the backlog of
+    /// the agent's own slowest pinned reader of its topic (`u32::MAX`: nothing bounds it).
+    fn credit_now(&mut self, writer: EntityRef, now: Instant) -> u32 {
+        if !self.gates.is_empty() && !self.gate_open(writer, now) {
+            return 0;
+        }
+        if self.pinned.is_empty() {
+            return u32::MAX;
+        }
+        let Some(Node { handle: Handle::Writer(state), .. }) = self.entities.get(&writer).map(|n| &**n) else {
+            return u32::MAX;
+        };
+        let WriterState { writer: w, topic, written, .. } = &**state;
+        let guid = w.guid();
+        let room = self
+            .pinned
+            .iter()
+            .filter_map(|r| self.entities.get(r))
+            .filter_map(|node| match &node.handle {
+                Handle::Reader(r) if r.topic == *topic => {
+                    let bound = RELIABLE_BACKLOG.min(r.reader.queue().capacity() / 2).max(1);
+                    Some(bound.saturating_sub(node.backlog_for(&guid, *written, now)))
+                }
+                _ => None,
+            })
+            .min();
+        room.map_or(u32::MAX, |r| u32::try_from(r).unwrap_or(u32::MAX))
+    }
+
     /// Drops the expired gates of endpoints without held samples, at most every [`GATE_SWEEP`], and gives the
     /// table's room back once it is mostly empty.
     fn sweep_gates(&mut self, now: Instant) {
@@ -1260,6 +1294,7 @@ impl Middleware for Dds {
     fn delete(&mut self, entity: EntityRef) -> Result<(), MiddlewareError> {
         self.flush_pending();
         self.pinned.remove(&entity);
+        self.without_credit.remove(&entity);
         self.gates.remove(&entity);
         self.held.remove(&entity);
         self.replies_held.remove(&entity);
@@ -1278,6 +1313,7 @@ impl Middleware for Dds {
         }
         self.names.remove(&client);
         self.pinned.retain(|e| e.client != client);
+        self.without_credit.retain(|e| e.client != client);
         self.gates.retain(|e, _| e.client != client);
         self.held.retain(|e, _| e.client != client);
         if let Some(g) = &self.graph {
@@ -1424,30 +1460,13 @@ impl Middleware for Dds {
     }
 
     fn write_credit(&mut self, writer: EntityRef, now: Instant) -> u32 {
-        if !self.gates.is_empty() && !self.gate_open(writer, now) {
-            return 0;
+        let credit = self.credit_now(writer, now);
+        if credit == 0 {
+            self.without_credit.insert(writer);
+        } else if !self.without_credit.is_empty() {
+            self.without_credit.remove(&writer);
         }
-        if self.pinned.is_empty() {
-            return u32::MAX;
-        }
-        let Some(Node { handle: Handle::Writer(state), .. }) = self.entities.get(&writer).map(|n| &**n) else {
-            return u32::MAX;
-        };
-        let WriterState { writer: w, topic, written, .. } = &**state;
-        let guid = w.guid();
-        let room = self
-            .pinned
-            .iter()
-            .filter_map(|r| self.entities.get(r))
-            .filter_map(|node| match &node.handle {
-                Handle::Reader(r) if r.topic == *topic => {
-                    let bound = RELIABLE_BACKLOG.min(r.reader.queue().capacity() / 2).max(1);
-                    Some(bound.saturating_sub(node.backlog_for(&guid, *written, now)))
-                }
-                _ => None,
-            })
-            .min();
-        room.map_or(u32::MAX, |r| u32::try_from(r).unwrap_or(u32::MAX))
+        credit
     }
 
     fn set_reader_reliable(&mut self, reader: EntityRef, reliable: bool) {

@@ -7,8 +7,8 @@ impl Dds {
     /// Its entities and what its first-contact gates hold, counted once per snapshot.
     pub(super) fn observed_stats(&self) -> MiddlewareStats {
         let mut stats = MiddlewareStats {
-            // A writer at its gate has no credit (see the module documentation of `dds`).
-            writers_without_credit: self.gates.len() as u64,
+            // Gated, or a full backlog behind the agent's own slowest reliable reader, when the core last asked.
+            writers_without_credit: self.without_credit.len() as u64,
             samples_at_gate: self.held.values().map(|h| h.len() as u64).sum(),
             ..MiddlewareStats::default()
         };
