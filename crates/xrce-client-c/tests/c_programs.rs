@@ -121,8 +121,15 @@ fn run_over_serial_lines() {
     }
 }
 
-/// Runs `name IP PORT` against our agent.
+/// Runs `name IP PORT` against our agent, or against the agent `XRCE_C_AGENT=IP:PORT` names (eProsima's, say:
+/// a DDS agent wants `XRCE_C_SETTLE_MS`, the time its writers and readers take to match, 2000 for eProsima's).
 fn run_with_agent(name: &str) {
+    if let Ok(outside) = std::env::var("XRCE_C_AGENT") {
+        let (ip, port) = outside.rsplit_once(':').expect("XRCE_C_AGENT=IP:PORT");
+        let settle = std::env::var("XRCE_C_SETTLE_MS").unwrap_or_else(|_| "0".into());
+        run(name, &[ip, port, &settle]);
+        return;
+    }
     let mut agent = AgentInstance::create(["xrce-agent", "udp4", "-p", "0", "-m", "ced", "-v", "0"]).expect("agent");
     let port = agent.local_addr().expect("agent bound").port().to_string();
     run(name, &["127.0.0.1", &port]);
@@ -138,6 +145,35 @@ fn ping_time_references_deletion_custom_and_tcp_transports() {
     run("misc", &["127.0.0.1", &udp_port, &tcp_port]);
     udp.stop().expect("agent stops");
     tcp.stop().expect("agent stops");
+}
+
+/// The two headers are C99 as eProsima's are (firmware toolchains build with `-std=c99 -pedantic`), and C11:
+/// they compile cleanly in both, their layout checks included.
+#[test]
+fn the_headers_compile_as_c99_and_c11_with_pedantic_warnings_as_errors() {
+    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let probe = library_dir().join("headers.c");
+    std::fs::write(
+        &probe,
+        "#include <uxr/client/client.h>\n#include <ucdr/microcdr.h>\nint main(void) { return 0; }\n",
+    )
+    .expect("probe written");
+    for std in ["c99", "c11"] {
+        let compiler = cc::Build::new()
+            .target(env!("XRCE_C_TARGET"))
+            .host(env!("XRCE_C_HOST"))
+            .opt_level(0)
+            .cargo_metadata(false)
+            .get_compiler();
+        let out = compiler
+            .to_command()
+            .args([format!("-std={std}").as_str(), "-pedantic", "-Wall", "-Wextra", "-Werror", "-fsyntax-only", "-I"])
+            .arg(crate_dir.join("include"))
+            .arg(&probe)
+            .output()
+            .expect("C compiler runs");
+        assert!(out.status.success(), "-std={std}:\n{}", String::from_utf8_lossy(&out.stderr));
+    }
 }
 
 #[test]

@@ -4,6 +4,7 @@
  * reliable reader gets the sample whenever it matched). */
 #include "node.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #define PAYLOAD 20000
@@ -58,6 +59,7 @@ static bool create(Node* node, bool writer) {
 
 int main(int argc, char** argv) {
     if (argc < 3) {
+        fprintf(stderr, "usage: %s IP PORT [SETTLE_MS]\n", argv[0]);
         return 2;
     }
     for (size_t i = 0; i < PAYLOAD; i++) {
@@ -83,6 +85,11 @@ int main(int argc, char** argv) {
     uxrDeliveryControl control = {UXR_MAX_SAMPLES_UNLIMITED, 0, 0, 0};
     uxr_buffer_request_data(&subscriber.session, subscriber.out, uxr_object_id(1, UXR_DATAREADER_ID), subscriber.in, &control);
     uxr_run_session_until_confirm_delivery(&subscriber.session, 1000);
+    /* an agent on DDS matches its writer and reader first (SETTLE_MS) */
+    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
+        uxr_run_session_time(&subscriber.session, 5);
+        uxr_run_session_time(&publisher.session, 5);
+    }
 
     ucdrBuffer ub;
     uint32_t size = 4 + PAYLOAD;

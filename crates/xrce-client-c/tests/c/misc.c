@@ -145,6 +145,30 @@ static void over_tcp(const char* ip, const char* port) {
     CHECK(uxr_close_tcp_transport(&transport));
 }
 
+/* Sessions on the stack, as eProsima's examples keep them: created with entities, deleted, gone. Under
+ * LeakSanitizer (the sanitized build of this test) a session that kept heap memory after
+ * uxr_delete_session would fail the run at exit. */
+static void on_the_stack(const char* ip, const char* port) {
+    uxrUDPTransport transport;
+    uxrSession sessions[3]; /* distinct storage: none is initialised twice */
+    uint8_t out[UXR_CONFIG_UDP_TRANSPORT_MTU * 4], in[UXR_CONFIG_UDP_TRANSPORT_MTU * 4];
+    CHECK(uxr_init_udp_transport(&transport, UXR_IPv4, ip, port));
+    for (uint32_t i = 0; i < 3; i++) {
+        uxrSession* session = &sessions[i];
+        uxr_init_session(session, &transport.comm, 0x11115D00 + i);
+        CHECK(uxr_create_session(session));
+        uxrStreamId stream = uxr_create_output_reliable_stream(session, out, sizeof(out), 4);
+        uxr_create_input_reliable_stream(session, in, sizeof(in), 4);
+        uxrObjectId participant = uxr_object_id(1, UXR_PARTICIPANT_ID);
+        uint16_t r = uxr_buffer_create_participant_bin(session, stream, participant, 0, "on_the_stack", UXR_REPLACE);
+        uint8_t status = UXR_STATUS_NONE;
+        CHECK(uxr_run_session_until_all_status(session, 2000, &r, &status, 1));
+        CHECK(uxr_delete_session(session));
+    }
+    CHECK(uxr_close_udp_transport(&transport));
+    memset(sessions, 0, sizeof(sessions)); /* what a later frame would do: no pointer into the heap stays */
+}
+
 int main(int argc, char** argv) {
     if (argc != 4) {
         return 2;
@@ -153,6 +177,7 @@ int main(int argc, char** argv) {
     discovery(argv[1], argv[2]);
     over_custom(argv[1], argv[2]);
     over_tcp(argv[1], argv[3]);
+    on_the_stack(argv[1], argv[2]);
     printf("%s\n", failures == 0 ? "all checks passed" : "FAILED");
     return failures == 0 ? 0 : 1;
 }

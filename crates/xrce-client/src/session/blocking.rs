@@ -66,8 +66,10 @@ struct Io<T, K, const MTU: usize> {
     #[cfg(feature = "reconnect")]
     reopen_ms: u16,
     /// Entities and reads to create again after a re-creation (boxed: the session stays small on the stack).
+    /// Recorded only while reconnection is on, and allocated then: a session without it (the C library's,
+    /// as eProsima's) holds no heap memory, so one on a C program's stack leaks nothing when it goes.
     #[cfg(feature = "std")]
-    replay: Box<Replay>,
+    replay: Option<Box<Replay>>,
 }
 
 impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
@@ -81,7 +83,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             #[cfg(feature = "reconnect")]
             reopen_ms: 0,
             #[cfg(feature = "std")]
-            replay: Box::default(),
+            replay: None,
         }
     }
 
@@ -93,7 +95,9 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         while let Some(n) = core.poll_transmit(now, &mut self.buf) {
             let msg = self.buf.get(..n).unwrap_or(&[]);
             #[cfg(feature = "std")]
-            self.replay.observe(msg);
+            if core.reconnect_config().is_some() {
+                self.replay.get_or_insert_with(Box::default).observe(msg);
+            }
             if self.broken() {
                 continue;
             }
@@ -231,7 +235,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         for s in streams {
             let _ = core.take_reliable_output(s, |body, _| unacked.message(s, body));
         }
-        self.replay.start(unacked.items);
+        self.replay.get_or_insert_with(Box::default).start(unacked.items);
     }
 
     /// Writes what the replay still holds, running the session while the histories are full, until all is
@@ -242,17 +246,21 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
         core: &mut SessionCore<'_, A, B, C, D>,
         h: &mut H,
     ) -> Result<()> {
-        while !self.replay.pending.is_empty() && core.state() == SessionState::Established {
-            while let Some(item) = self.replay.pending.front() {
+        loop {
+            let Some(replay) = self.replay.as_deref_mut() else { return Ok(()) };
+            if replay.pending.is_empty() || core.state() != SessionState::Established {
+                break;
+            }
+            while let Some(item) = replay.pending.front() {
                 let written = core.outputs().write_parts(item.stream, &[&item.bytes]);
                 if written == Err(Error::WouldBlock) {
                     break;
                 }
                 // Written, or never writable (a stream gone): either way done with it.
-                self.replay.pending.pop_front();
+                replay.pending.pop_front();
             }
             core.flash_output_streams();
-            if self.replay.pending.is_empty() {
+            if replay.pending.is_empty() {
                 break;
             }
             self.send_pending(core)?;
@@ -473,7 +481,8 @@ impl<
         self
     }
 
-    /// As [`with_reconnect`](Self::with_reconnect), on a session in use.
+    /// As [`with_reconnect`](Self::with_reconnect), on a session in use. The entities a re-creation makes
+    /// again are those created while reconnection was on (with `std`): turned on later, it records from then.
     pub fn set_reconnect(&mut self, config: Option<Reconnect>) {
         self.core.set_reconnect(config);
     }
@@ -481,7 +490,7 @@ impl<
     /// How many entities the session would create again after a re-creation (those created and not deleted).
     #[cfg(feature = "std")]
     pub fn recorded_entities(&self) -> usize {
-        self.io.replay.entity_count()
+        self.io.replay.as_ref().map_or(0, |r| r.entity_count())
     }
 
     /// Counts the session as lost now and starts reconnecting (the application knows the link went down).
@@ -559,7 +568,9 @@ impl<
     /// `uxr_create_session_retries`.
     pub fn create_session_retries(&mut self, attempts: usize) -> Result<()> {
         #[cfg(feature = "std")]
-        self.io.replay.clear();
+        if let Some(replay) = self.io.replay.as_deref_mut() {
+            replay.clear();
+        }
         let now = self.now();
         self.core.create_session_retries(attempts, now);
         while self.core.state() == SessionState::Creating {
@@ -579,8 +590,11 @@ impl<
 
     /// `uxr_delete_session_retries`.
     pub fn delete_session_retries(&mut self, attempts: usize) -> Result<bool> {
+        // Nothing to create again once deleted: the record's memory goes too.
         #[cfg(feature = "std")]
-        self.io.replay.clear();
+        {
+            self.io.replay = None;
+        }
         let now = self.now();
         self.core.delete_session_retries(attempts, now);
         let mut confirmed = false;

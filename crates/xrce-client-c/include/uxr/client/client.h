@@ -389,8 +389,14 @@ bool uxr_locator_to_ip(const TransportLocator* locator, char* ip, size_t size, u
 #define UXR_PTR (sizeof(void*))
 #ifdef __cplusplus
 #define UXR_ABI(T, SIZE, ALIGN) static_assert(sizeof(T) == (SIZE) && alignof(T) == (ALIGN), "layout of " #T);
-#else
+#elif defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
 #define UXR_ABI(T, SIZE, ALIGN) _Static_assert(sizeof(T) == (SIZE) && _Alignof(T) == (ALIGN), "layout of " #T);
+#else
+/* C99 (firmware built with -std=c99 -pedantic): no _Static_assert or _Alignof; an array of negative size
+ * fails the build instead, and the alignment is the offset of T after a char. */
+#define UXR_ABI(T, SIZE, ALIGN)                                                                              \
+    struct uxr_abi_align_##T { char c; T t; };                                                                \
+    typedef char uxr_abi_layout_of_##T[(sizeof(T) == (SIZE) && offsetof(struct uxr_abi_align_##T, t) == (ALIGN)) ? 1 : -1];
 #endif
 UXR_ABI(ucdrBuffer, 7 * UXR_PTR + 8, UXR_PTR)
 UXR_ABI(uxrStreamId, 4, 1)
