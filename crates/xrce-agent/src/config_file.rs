@@ -168,7 +168,7 @@ impl Parser<'_> {
             }
             let args = self.arguments(key, value, &names)?;
             // Checked alone first, on a transport that needs nothing else, so the error names this key.
-            self.check_alone(key, "pseudoterminal", &args)?;
+            self.check_alone(key, value, "pseudoterminal", &args)?;
             common_args.extend(args);
         }
         if tables.transport.is_empty() {
@@ -221,7 +221,7 @@ impl Parser<'_> {
                 return Err(self.error(key.span().start, Some(key.get_ref()), format!("unknown key{hint}")));
             }
             let value_args = self.arguments(key, value, names)?;
-            self.check_alone(key, kind_name, &value_args)?;
+            self.check_alone(key, value, kind_name, &value_args)?;
             args.extend(value_args);
         }
         args.extend(common_args.iter().cloned());
@@ -286,11 +286,23 @@ impl Parser<'_> {
 
     /// Parses `args` after `kind` as a command line; an error there is this key's (a missing other option,
     /// which the whole table may still give, is not).
-    fn check_alone(&self, key: &Spanned<String>, kind: &str, args: &[String]) -> Result<(), ConfigFileError> {
+    fn check_alone(
+        &self,
+        key: &Spanned<String>,
+        value: &Spanned<Value>,
+        kind: &str,
+        args: &[String],
+    ) -> Result<(), ConfigFileError> {
         let line = ["xrce-agent", kind].into_iter().map(str::to_owned).chain(args.iter().cloned());
         match cli::parse_from(line) {
             Err(e) if !matches!(e.kind(), ErrorKind::MissingRequiredArgument) => {
-                Err(self.error(key.span().start, Some(key.get_ref()), clap_message(&e)))
+                let mut message = clap_message(&e);
+                // A boolean went to the command line as on/off: name the value the file holds.
+                if let Value::Boolean(b) = value.get_ref() {
+                    let (given, file) = if *b { ("'on'", "'true'") } else { ("'off'", "'false'") };
+                    message = message.replacen(given, file, 1);
+                }
+                Err(self.error(key.span().start, Some(key.get_ref()), message))
             }
             _ => Ok(()),
         }
@@ -336,14 +348,15 @@ impl Parser<'_> {
                 Transport::CanFd { device, .. } => ("dev", vec![format!("CAN interface {device}")]),
                 _ => continue,
             };
+            let key = table.get_ref().keys().find(|k| k.get_ref() == key_name || k.get_ref() == "file");
+            let offset = key.map_or(table.span().start, |k| k.span().start);
             for what in taken {
                 if let Some(first) = seen.get(&what) {
-                    let key = table.get_ref().keys().find(|k| k.get_ref() == key_name || k.get_ref() == "file");
-                    let offset = key.map_or(table.span().start, |k| k.span().start);
                     let message = format!("{what} given twice (first at line {first})");
                     return Err(self.error(offset, key.map(|k| k.get_ref().as_str()), message));
                 }
-                seen.insert(what, spec.line);
+                // The line of the key that gave it (the table's line when a default port did).
+                seen.insert(what, self.line_of(offset));
             }
         }
         Ok(())

@@ -109,6 +109,8 @@ fn an_unknown_key() {
 fn a_wrong_type() {
     assert_error("[[transport]]\nkind = \"udp4\"\nport = \"eighty\"\n", 3, Some("port"), "invalid value 'eighty'");
     assert_error("[[transport]]\nkind = \"udp4\"\nport = 1.5\n", 3, Some("port"), "invalid value");
+    // A boolean where a number goes: the message shows the file's value, not the on/off it stands for.
+    assert_error("[[transport]]\nkind = \"udp4\"\nport = true\n", 3, Some("port"), "invalid value 'true'");
     assert_error(
         "verbose = { level = 4 }\n[[transport]]\nkind = \"udp4\"\nport = 1\n",
         1,
@@ -136,7 +138,8 @@ fn a_wrong_type() {
 fn a_port_given_twice() {
     let text = "[[transport]]\nkind = \"udp4\"\nport = 8888\n[[transport]]\nkind = \"tcp4\"\nport = 8888\n\
                 [[transport]]\nkind = \"udp6\"\nport = 8888\n";
-    assert_error(text, 9, Some("port"), "UDP port 8888 given twice (first at line 1)");
+    // The first is where its `port` key is, not its table.
+    assert_error(text, 9, Some("port"), "UDP port 8888 given twice (first at line 3)");
     // The same device twice, once in a list.
     let text = "[[transport]]\nkind = \"serial\"\ndev = \"/dev/null\"\n[[transport]]\nkind = \"multiserial\"\n\
                 devs = \"/dev/zero /dev/null\"\n";
