@@ -91,3 +91,22 @@ fn a_limited_snapshot_keeps_the_probed_then_the_lowest_keys_and_knows_every_key(
     assert_eq!(s.keys.len(), 4);
     assert_eq!(core.snapshot(now).clients.len(), 4);
 }
+
+/// A snapshot of a few clients (what `/metrics` and `/diagnostics` get each second) still totals every client.
+#[test]
+fn a_snapshot_of_a_few_clients_totals_them_all() {
+    let mut core = core_with(CoreConfig::default());
+    let now = Instant::now();
+    for port in 0..5u16 {
+        core.handle_datagram(port, &create_client(0x0100 + u32::from(port)), now);
+        // A best-effort message each, counted as a message in.
+        let header = MessageHeader::new(0x81, StreamId(1), 1, ClientKey::INVALID);
+        let hb = xrce_proto::submessage::Heartbeat { first_unacked_seq_nr: 0, last_unacked_seq_nr: 0, stream_id: 0x80 };
+        core.handle_datagram(port, &encode(&header, &Submessage::Heartbeat(hb)), now);
+    }
+    let all = core.snapshot(now);
+    let few = core.snapshot_of(now, 2);
+    assert_eq!((all.clients.len(), few.clients.len(), few.keys.len()), (5, 2, 5));
+    assert_eq!(all.client_totals().messages_in, 5);
+    assert_eq!(few.client_totals().messages_in, 5, "the clients left out are still counted");
+}

@@ -13,8 +13,9 @@ use prometheus_client::registry::Registry;
 
 use crate::core::{AgentSnapshot, ClientCounters, ClientSnapshot, DropReason, RemoveReason};
 
-/// Clients with their own series, at most: past it the clients with the lowest keys are shown and
-/// `xrce_agent_clients_not_shown` says how many are not (the agent totals count everyone). At 1,000 clients
+/// Clients with their own series, at most: past it those silent and probed are shown first, then the lowest
+/// keys (the core copies only those into the snapshot it publishes), and `xrce_agent_clients_not_shown` says
+/// how many are not (the agent totals count everyone). At 1,000 clients
 /// and ~15 series each a scrape is ~2 MB of text.
 pub const MAX_CLIENT_SERIES: usize = 1000;
 

@@ -254,6 +254,10 @@ mod tests {
             totals: CoreStats::default(),
             middleware: MiddlewareStats::default(),
             keys: clients.iter().map(|c| c.key).collect(),
+            present_clients: clients.iter().fold(ClientCounters::default(), |mut all, c| {
+                all.absorb(&c.counters);
+                all
+            }),
             clients,
         }
     }
