@@ -6,7 +6,7 @@
 use std::cmp::Reverse;
 use std::fmt::Debug;
 use std::hash::Hash;
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
 
 use xrce_proto::{ClientKey, ObjectKind};
@@ -260,9 +260,17 @@ where
 /// Where the loop's thread publishes snapshots: readers (the `--metrics` server, the library API) take the
 /// latest without touching the core. The lock guards one pointer, held for a swap or a clone of it: never
 /// while a snapshot is built or read.
-#[derive(Debug, Default)]
+#[derive(Default)]
 pub struct SnapshotBoard {
     latest: Mutex<Option<Arc<AgentSnapshot>>>,
+    /// Called after each new snapshot (on the loop's thread: it must be quick, a wake-up).
+    on_store: OnceLock<Box<dyn Fn() + Send + Sync>>,
+}
+
+impl std::fmt::Debug for SnapshotBoard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SnapshotBoard").field("watched", &self.on_store.get().is_some()).finish_non_exhaustive()
+    }
 }
 
 impl SnapshotBoard {
@@ -271,10 +279,19 @@ impl SnapshotBoard {
         self.latest.lock().unwrap_or_else(PoisonError::into_inner).clone()
     }
 
+    /// Has `notify` called after each new snapshot, on the loop's thread (so it only wakes a reader: the
+    /// `--metrics` server renders the new text at once, not when the next scrape comes). The first call wins.
+    pub fn watch(&self, notify: impl Fn() + Send + Sync + 'static) {
+        let _ = self.on_store.set(Box::new(notify));
+    }
+
     fn store(&self, snapshot: Arc<AgentSnapshot>) {
         // The old one is dropped after the lock is released, by whoever holds it last.
         let old = self.latest.lock().unwrap_or_else(PoisonError::into_inner).replace(snapshot);
         drop(old);
+        if let Some(notify) = self.on_store.get() {
+            notify();
+        }
     }
 }
 

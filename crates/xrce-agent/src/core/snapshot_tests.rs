@@ -61,6 +61,12 @@ fn drops_are_counted_by_reason_and_client() {
 fn snapshots_are_published_on_the_cores_timer() {
     let mut core = core_with(CoreConfig::default());
     let board = Arc::new(SnapshotBoard::default());
+    let stored = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let count = stored.clone();
+    // What the `--metrics` server does: it is woken by each new snapshot.
+    board.watch(move || {
+        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    });
     let t0 = Instant::now();
     assert!(board.latest().is_none());
     core.publish_snapshots(Some(board.clone()), Duration::from_secs(1), t0);
@@ -72,6 +78,7 @@ fn snapshots_are_published_on_the_cores_timer() {
     assert!(Arc::ptr_eq(&first, &board.latest().expect("kept")), "not due yet");
     core.handle_timeout(t0 + Duration::from_secs(1));
     assert_eq!(board.latest().expect("published").clients.len(), 1);
+    assert_eq!(stored.load(std::sync::atomic::Ordering::Relaxed), 2, "the watcher heard of both snapshots");
 }
 
 #[test]
