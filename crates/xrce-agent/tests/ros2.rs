@@ -865,26 +865,6 @@ fn diagnostics_show_each_client_with_its_level() {
     assert!(warned, "the node whose datagrams are dropped WARN: {levels:?}");
 }
 
-/// A UDP link to the agent whose socket the test also writes to directly.
-struct TwinUdp(std::net::UdpSocket);
-
-impl xrce_client::Transport for TwinUdp {
-    fn send(&mut self, msg: &[u8]) -> Result<(), xrce_client::TransportError> {
-        self.0.send(msg)?;
-        Ok(())
-    }
-
-    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, xrce_client::TransportError> {
-        let wait = Duration::from_millis(u64::try_from(timeout_ms.max(1)).unwrap_or(1));
-        self.0.set_read_timeout(Some(wait))?;
-        match self.0.recv(buf) {
-            Ok(n) => Ok(Some(n)),
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => Ok(None),
-            Err(e) => Err(e.into()),
-        }
-    }
-}
-
 /// A micro-ROS-like client that creates a participant named `node`, then for `seconds` keeps its session alive
 /// and, from its own address, sends every 200 ms a best-effort message older than the one before it (which the
 /// agent drops as out of order, counted for this client). Returns how many such messages it sent.
@@ -895,7 +875,7 @@ fn named_participant_dropping(port: u16, key: u32, node: &str, seconds: u64) -> 
     socket.connect(("127.0.0.1", port)).expect("connect");
     let raw = socket.try_clone().expect("clone");
     let (mut out_buf, mut in_buf) = ([0u8; 2048], [0u8; 2048]);
-    let mut session = Session::new(TwinUdp(socket), key);
+    let mut session = Session::new(UdpTransport::from_socket(socket), key);
     session.create_session().expect("session");
     let out = session.create_output_reliable_stream(&mut out_buf, 4).expect("out stream");
     session.create_input_reliable_stream(&mut in_buf, 4).expect("in stream");

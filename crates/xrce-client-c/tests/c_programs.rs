@@ -40,19 +40,23 @@ fn library_dir() -> PathBuf {
     .clone()
 }
 
+/// The C compiler the build found for this target, at `opt_level`.
+fn c_compiler(opt_level: u32) -> cc::Tool {
+    cc::Build::new()
+        .target(env!("XRCE_C_TARGET"))
+        .host(env!("XRCE_C_HOST"))
+        .opt_level(opt_level)
+        .cargo_metadata(false)
+        .warnings(true)
+        .get_compiler()
+}
+
 /// Compiles `tests/c/<name>.c` into an executable; `sanitize` adds ASan and UBSan.
 fn compile(name: &str, sanitize: bool) -> PathBuf {
     let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let lib_dir = library_dir();
     let exe = lib_dir.join(format!("c-test-{name}{}", if sanitize { "-san" } else { "" }));
-    let compiler = cc::Build::new()
-        .target(env!("XRCE_C_TARGET"))
-        .host(env!("XRCE_C_HOST"))
-        .opt_level(1)
-        .cargo_metadata(false)
-        .warnings(true)
-        .get_compiler();
-    let mut cmd = compiler.to_command();
+    let mut cmd = c_compiler(1).to_command();
     cmd.arg("-std=c11").arg("-Wall").arg("-Wextra").arg("-Werror");
     if sanitize {
         cmd.args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]);
@@ -159,13 +163,7 @@ fn the_headers_compile_as_c99_and_c11_with_pedantic_warnings_as_errors() {
     )
     .expect("probe written");
     for std in ["c99", "c11"] {
-        let compiler = cc::Build::new()
-            .target(env!("XRCE_C_TARGET"))
-            .host(env!("XRCE_C_HOST"))
-            .opt_level(0)
-            .cargo_metadata(false)
-            .get_compiler();
-        let out = compiler
+        let out = c_compiler(0)
             .to_command()
             .args([format!("-std={std}").as_str(), "-pedantic", "-Wall", "-Wextra", "-Werror", "-fsyntax-only", "-I"])
             .arg(crate_dir.join("include"))

@@ -541,7 +541,7 @@ where
         // Stale entries are dropped when they come due; past half as many again as there are clients the heap
         // is rebuilt (amortized: one O(n) pass per n/2 pushes). So the heap never needs more than 1.5 entries
         // per client, and its spare capacity after a burst of clients is given back: at 10,000 clients the
-        // heap stays in 16,384 slots (393 kB) instead of growing to 32,768 (786 kB).
+        // heap stays in 16,384 slots (262 kB of 16 B entries) instead of growing to 32,768.
         if self.timers.len() > self.clients.len() + self.clients.len() / 2 + 64 {
             let clients = &self.clients;
             self.timers.retain(|Reverse((due, key))| clients.get(key).is_some_and(|c| due.matches(c.timer_queued)));

@@ -21,22 +21,33 @@ fn epoch() -> Instant {
     *EPOCH.get_or_init(Instant::now)
 }
 
+/// `t` counted from [`epoch`] in the unit `count` gives (negative before it), saturating.
+fn since_epoch(t: Instant, count: fn(Duration) -> u128) -> i64 {
+    let e = epoch();
+    let units = |d: Duration| i64::try_from(count(d)).unwrap_or(i64::MAX);
+    match t.checked_duration_since(e) {
+        Some(after) => units(after),
+        None => -units(e.saturating_duration_since(t)),
+    }
+}
+
+/// The instant `units` (of the unit `unit` makes a `Duration` of) from [`epoch`]: the inverse of
+/// [`since_epoch`].
+fn at_epoch_offset(units: i64, unit: fn(u64) -> Duration) -> Instant {
+    let e = epoch();
+    let d = unit(units.unsigned_abs());
+    let shifted = if units >= 0 { e.checked_add(d) } else { e.checked_sub(d) };
+    shifted.unwrap_or(e)
+}
+
 /// `t` as the engine counts time (microseconds from [`epoch`]).
 pub(crate) fn to_engine(t: Instant) -> reliable::Instant {
-    let e = epoch();
-    let micros = |d: Duration| i64::try_from(d.as_micros()).unwrap_or(i64::MAX);
-    match t.checked_duration_since(e) {
-        Some(after) => reliable::Instant(micros(after)),
-        None => reliable::Instant(-micros(e.saturating_duration_since(t))),
-    }
+    reliable::Instant(since_epoch(t, |d| d.as_micros()))
 }
 
 /// The engine's `t` as an `Instant` (exactly the one [`to_engine`] mapped to it).
 pub(crate) fn from_engine(t: reliable::Instant) -> Instant {
-    let e = epoch();
-    let d = Duration::from_micros(t.0.unsigned_abs());
-    let shifted = if t.0 >= 0 { e.checked_add(d) } else { e.checked_sub(d) };
-    shifted.unwrap_or(e)
+    at_epoch_offset(t.0, Duration::from_micros)
 }
 
 /// An instant in the core's timer queue: nanoseconds from [`epoch`] (exact, as `Instant` counts on Linux;
@@ -47,20 +58,12 @@ pub(crate) struct TimerTick(i64);
 impl TimerTick {
     /// `t` as a tick.
     pub(crate) fn of(t: Instant) -> Self {
-        let e = epoch();
-        let nanos = |d: Duration| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX);
-        match t.checked_duration_since(e) {
-            Some(after) => Self(nanos(after)),
-            None => Self(-nanos(e.saturating_duration_since(t))),
-        }
+        Self(since_epoch(t, |d| d.as_nanos()))
     }
 
     /// The instant it stands for.
     pub(crate) fn instant(self) -> Instant {
-        let e = epoch();
-        let d = Duration::from_nanos(self.0.unsigned_abs());
-        let shifted = if self.0 >= 0 { e.checked_add(d) } else { e.checked_sub(d) };
-        shifted.unwrap_or(e)
+        at_epoch_offset(self.0, Duration::from_nanos)
     }
 
     /// Whether it is `queued`, the instant a client's entry was queued at.

@@ -57,6 +57,12 @@ impl UdpTransport {
         Ok(Self { socket: socket.into(), mtu: DEFAULT_MTU })
     }
 
+    /// A transport over `socket`, already connected to the agent (a program that also uses the socket itself
+    /// keeps a `try_clone` of it).
+    pub fn from_socket(socket: UdpSocket) -> Self {
+        Self { socket, mtu: DEFAULT_MTU }
+    }
+
     /// The local address (the agent identifies keyless sessions by it).
     pub fn local_addr(&self) -> Result<SocketAddr, TransportError> {
         Ok(self.socket.local_addr()?)
