@@ -4,7 +4,6 @@
 #![allow(non_camel_case_types, non_snake_case)]
 
 use xrce_client::{DeliveryControl, Durability, History, ObjectId, ObjectKind, QoS, Reliability, StreamId};
-use xrce_proto::{Guid, SequenceNumber};
 
 /// `uxrStreamId`.
 #[repr(C)]
@@ -132,57 +131,3 @@ impl uxrQoS_t {
         }
     }
 }
-
-/// `SampleIdentity` (`GUID_t` then `SequenceNumber_t`, 24 bytes, alignment 4).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SampleIdentity {
-    /// `writer_guid.guidPrefix.data`.
-    pub guid_prefix: [u8; 12],
-    /// `writer_guid.entityId.entityKey`.
-    pub entity_key: [u8; 3],
-    /// `writer_guid.entityId.entityKind`.
-    pub entity_kind: u8,
-    /// `sequence_number.high`.
-    pub sn_high: i32,
-    /// `sequence_number.low`.
-    pub sn_low: u32,
-}
-
-impl SampleIdentity {
-    /// The C form.
-    pub const fn from_rust(s: &xrce_proto::SampleIdentity) -> Self {
-        Self {
-            guid_prefix: s.writer_guid.prefix,
-            entity_key: s.writer_guid.entity_key,
-            entity_kind: s.writer_guid.entity_kind,
-            sn_high: s.sequence_number.high,
-            sn_low: s.sequence_number.low,
-        }
-    }
-
-    /// The Rust form.
-    pub const fn rust(&self) -> xrce_proto::SampleIdentity {
-        xrce_proto::SampleIdentity {
-            writer_guid: Guid { prefix: self.guid_prefix, entity_key: self.entity_key, entity_kind: self.entity_kind },
-            sequence_number: SequenceNumber { high: self.sn_high, low: self.sn_low },
-        }
-    }
-}
-
-/// `TransportLocator` (discovery).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct TransportLocator {
-    /// 1: IPv4, 3: IPv6.
-    pub format: u8,
-    /// The address, first 4 bytes for IPv4.
-    pub address: [u8; 16],
-    /// The port.
-    pub port: u16,
-}
-
-/// `TransportLocator.format` of an IPv4 address (the spec's medium locator).
-pub const LOCATOR_IPV4: u8 = 1;
-/// `TransportLocator.format` of an IPv6 address (the spec's large locator).
-pub const LOCATOR_IPV6: u8 = 3;

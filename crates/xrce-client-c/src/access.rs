@@ -3,8 +3,9 @@
 
 use xrce_client::StreamId;
 
-use crate::abi::{uxrDeliveryControl, uxrObjectId, uxrStreamId, SampleIdentity, BEST_EFFORT_STREAM, RELIABLE_STREAM};
+use crate::abi::{uxrDeliveryControl, uxrObjectId, uxrStreamId, BEST_EFFORT_STREAM, RELIABLE_STREAM};
 use crate::session::{uxrSession, with_outputs};
+use crate::types::SampleIdentity;
 use crate::ucdr::buffer::{ucdrBuffer, LITTLE};
 
 /// `uxr_buffer_request_data`: a null `control` asks for one sample.
@@ -47,7 +48,10 @@ pub unsafe extern "C" fn uxr_buffer_cancel_data(
 }
 
 /// `uxr_prepare_output_stream`: reserves `data_size` bytes in the stream and points `ub` at them (zeroed; all
-/// are sent whatever is written). 0 when they do not fit one message, with `ub` left empty (its writes fail).
+/// are sent whatever is written). On a reliable stream, a sample larger than one message is spread over the
+/// stream's slots as fragments, as eProsima's library does: `ub` then fills a window at a time (its on-full
+/// callback) and the sample must fit the stream's free history whole. 0 when the bytes do not fit, with `ub`
+/// left empty (its writes fail).
 ///
 /// # Safety
 /// `session` null or a `uxrSession`; `ub` null or writable. The program serializes into `ub` before the next
@@ -66,15 +70,22 @@ pub unsafe extern "C" fn uxr_prepare_output_stream(
     let size = usize::try_from(data_size).unwrap_or(usize::MAX);
     // SAFETY: contract.
     let prepared = unsafe {
-        with_outputs(session, None, |o| {
-            o.prepare_output_stream(stream_id.rust(), entity_id.rust(), size).ok().map(|mut p| {
+        with_outputs(session, Err(xrce_client::Error::Busy), |o| {
+            o.prepare_output_stream(stream_id.rust(), entity_id.rust(), size).map(|mut p| {
                 let request = p.request_id;
                 let buf = p.buffer();
                 (request, buf.as_mut_ptr(), buf.len())
             })
         })
     };
-    let (request, data, len) = prepared.unwrap_or((0, core::ptr::null_mut(), 0));
+    let (request, data, len) = match prepared {
+        Ok(p) => p,
+        Err(xrce_client::Error::TooLarge) if stream_id.type_ == RELIABLE_STREAM => {
+            // SAFETY: contract.
+            return unsafe { crate::session::prepare_whole(session, stream_id, entity_id, ub, size) };
+        }
+        Err(_) => (0, core::ptr::null_mut(), 0),
+    };
     // SAFETY: `ub` non-null and writable (contract). The slot lies in the stream memory the program lent to the
     // session; the session does not touch it again before the program's next call on it, by which time the
     // program has serialized into it.
@@ -188,4 +199,35 @@ pub extern "C" fn uxr_stream_id_from_raw(raw: u8, direction: u32) -> uxrStreamId
 #[no_mangle]
 pub extern "C" fn uxr_object_id(id: u16, type_: u8) -> uxrObjectId {
     uxrObjectId { id, type_ }
+}
+
+/// `uxr_object_id_from_raw`: the object id of the wire's two bytes (a null pointer gives the invalid id).
+///
+/// # Safety
+/// `raw` null or two readable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn uxr_object_id_from_raw(raw: *const u8) -> uxrObjectId {
+    if raw.is_null() {
+        return uxrObjectId { id: 0, type_: 0 };
+    }
+    // SAFETY: two readable bytes (contract).
+    let bytes = unsafe { [raw.read(), raw.add(1).read()] };
+    uxrObjectId::from_rust(xrce_client::ObjectId(bytes))
+}
+
+/// `uxr_object_id_to_raw`: the wire's two bytes of `object_id` into `raw`.
+///
+/// # Safety
+/// `raw` null or two writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn uxr_object_id_to_raw(object_id: uxrObjectId, raw: *mut u8) {
+    if raw.is_null() {
+        return;
+    }
+    let [hi, lo] = object_id.rust().0;
+    // SAFETY: two writable bytes (contract).
+    unsafe {
+        raw.write(hi);
+        raw.add(1).write(lo);
+    }
 }

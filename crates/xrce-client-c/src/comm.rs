@@ -1,15 +1,19 @@
-//! `uxrCommunication`: the function table every transport fills in, and the Rust transport a session runs
-//! over, which calls through it.
+//! `uxrCommunication`: the function table every transport fills in (eProsima's form: `recv_msg` points the
+//! caller at a message the transport keeps), the Rust transport a session runs over, which calls through it,
+//! and the functions that expose the library's own transports through such a table.
 
 use core::ffi::c_void;
+use core::sync::atomic::{AtomicU8, Ordering};
 
 use xrce_client::{Transport, TransportError};
 
-/// `uxrSendMsgFunc`.
+/// `send_msg_func`.
 pub type SendMsg = Option<unsafe extern "C" fn(instance: *mut c_void, buf: *const u8, len: usize) -> bool>;
-/// `uxrRecvMsgFunc`: a message's length, 0 on timeout, negative on error.
+/// `recv_msg_func`: true with `*buf`/`*len` set to a message, false on timeout or error.
 pub type RecvMsg =
-    Option<unsafe extern "C" fn(instance: *mut c_void, buf: *mut u8, capacity: usize, timeout_ms: i32) -> i32>;
+    Option<unsafe extern "C" fn(instance: *mut c_void, buf: *mut *mut u8, len: *mut usize, timeout: i32) -> bool>;
+/// `comm_error_func`.
+pub type CommError = Option<extern "C" fn() -> u8>;
 
 /// `uxrCommunication`.
 #[repr(C)]
@@ -22,6 +26,8 @@ pub struct uxrCommunication {
     pub send_msg: SendMsg,
     /// Receives one message.
     pub recv_msg: RecvMsg,
+    /// The last error of the library's transports.
+    pub comm_error: CommError,
     /// Largest message.
     pub mtu: u16,
 }
@@ -57,62 +63,109 @@ impl Transport for Comm {
     fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
         let table = self.table().ok_or(TransportError::NotOpen)?;
         let recv = table.recv_msg.ok_or(TransportError::NotOpen)?;
-        // SAFETY: a transport's own function with its own instance; `buf` is writable for its length.
-        let n = unsafe { recv(table.instance, buf.as_mut_ptr(), buf.len(), timeout_ms) };
-        match usize::try_from(n) {
-            Ok(0) => Ok(None),
-            Ok(n) if n <= buf.len() => Ok(Some(n)),
-            Ok(_) => Err(TransportError::MessageTooLarge),
-            Err(_) => Err(TransportError::Closed),
+        let (mut at, mut len) = (core::ptr::null_mut::<u8>(), 0usize);
+        // SAFETY: a transport's own function with its own instance; `at` and `len` are writable.
+        if !unsafe { recv(table.instance, &mut at, &mut len, timeout_ms) } || at.is_null() || len == 0 {
+            return Ok(None);
         }
+        let dst = buf.get_mut(..len).ok_or(TransportError::MessageTooLarge)?;
+        // SAFETY: the transport promises `len` readable bytes at `at` until its next call.
+        let src = unsafe { core::slice::from_raw_parts(at.cast_const(), len) };
+        dst.copy_from_slice(src);
+        Ok(Some(len))
     }
 }
 
-/// Fills `comm` for a Rust transport living at `instance` (inside the C transport structure).
-pub fn fill<T: Transport>(comm: &mut uxrCommunication, instance: *mut T, mtu: usize) {
+/// The last error code a library transport met (`comm_error`).
+static LAST_ERROR: AtomicU8 = AtomicU8::new(0);
+
+/// `comm_error` of the library's transports.
+extern "C" fn last_error() -> u8 {
+    LAST_ERROR.load(Ordering::Relaxed)
+}
+
+fn record(e: &TransportError) {
+    let code = match e {
+        TransportError::Custom(c) => *c,
+        TransportError::Closed => 2,
+        TransportError::NotOpen => 3,
+        _ => 1,
+    };
+    LAST_ERROR.store(code, Ordering::Relaxed);
+}
+
+/// A C transport structure that holds a Rust transport and a buffer for the last message received.
+pub trait Binding {
+    /// The Rust transport.
+    type Rust: Transport;
+
+    /// The Rust transport inside `this`, and its receive buffer (pointer, capacity).
+    ///
+    /// # Safety
+    /// `this` points to an initialised structure.
+    unsafe fn parts(this: *mut Self) -> (*mut Self::Rust, *mut u8, usize);
+}
+
+/// Fills `comm` for the transport structure at `this`, messages up to `mtu`.
+pub fn fill<B: Binding>(comm: &mut uxrCommunication, this: *mut B, mtu: usize) {
     *comm = uxrCommunication {
-        instance: instance.cast(),
-        send_msg: Some(send_through::<T>),
-        recv_msg: Some(recv_through::<T>),
+        instance: this.cast(),
+        send_msg: Some(send_through::<B>),
+        recv_msg: Some(recv_through::<B>),
+        comm_error: Some(last_error),
         mtu: u16::try_from(mtu).unwrap_or(u16::MAX),
     };
 }
 
-/// `send_msg` of a Rust transport.
+/// `send_msg` of a library transport.
 ///
 /// # Safety
-/// `instance` is the `T` given to [`fill`], still alive; `buf` holds `len` bytes.
-unsafe extern "C" fn send_through<T: Transport>(instance: *mut c_void, buf: *const u8, len: usize) -> bool {
-    // SAFETY: contract.
-    let Some(t) = (unsafe { instance.cast::<T>().as_mut() }) else { return false };
-    if buf.is_null() {
+/// `instance` is the structure given to [`fill`], still alive; `buf` holds `len` bytes.
+unsafe extern "C" fn send_through<B: Binding>(instance: *mut c_void, buf: *const u8, len: usize) -> bool {
+    if instance.is_null() || buf.is_null() {
         return false;
     }
+    // SAFETY: contract.
+    let (t, _, _) = unsafe { B::parts(instance.cast()) };
+    // SAFETY: the Rust transport inside the live structure.
+    let Some(t) = (unsafe { t.as_mut() }) else { return false };
     // SAFETY: non-null, `len` bytes (contract).
     let msg = unsafe { core::slice::from_raw_parts(buf, len) };
-    t.send(msg).is_ok()
+    t.send(msg).map_err(|e| record(&e)).is_ok()
 }
 
-/// `recv_msg` of a Rust transport.
+/// `recv_msg` of a library transport: the message lands in the structure's buffer.
 ///
 /// # Safety
-/// `instance` is the `T` given to [`fill`], still alive; `buf` has room for `capacity` bytes.
-unsafe extern "C" fn recv_through<T: Transport>(
+/// `instance` is the structure given to [`fill`], still alive; `buf` and `len` writable.
+unsafe extern "C" fn recv_through<B: Binding>(
     instance: *mut c_void,
-    buf: *mut u8,
-    capacity: usize,
+    buf: *mut *mut u8,
+    len: *mut usize,
     timeout_ms: i32,
-) -> i32 {
-    // SAFETY: contract.
-    let Some(t) = (unsafe { instance.cast::<T>().as_mut() }) else { return -1 };
-    if buf.is_null() {
-        return -1;
+) -> bool {
+    if instance.is_null() || buf.is_null() || len.is_null() {
+        return false;
     }
-    // SAFETY: non-null, room for `capacity` bytes (contract).
-    let out = unsafe { core::slice::from_raw_parts_mut(buf, capacity) };
+    // SAFETY: contract.
+    let (t, data, capacity) = unsafe { B::parts(instance.cast()) };
+    // SAFETY: the Rust transport inside the live structure.
+    let Some(t) = (unsafe { t.as_mut() }) else { return false };
+    // SAFETY: the structure's own buffer, `capacity` bytes, not otherwise borrowed during the call.
+    let out = unsafe { core::slice::from_raw_parts_mut(data, capacity) };
     match t.recv(out, timeout_ms) {
-        Ok(Some(n)) => i32::try_from(n).unwrap_or(-1),
-        Ok(None) => 0,
-        Err(_) => -1,
+        Ok(Some(n)) => {
+            // SAFETY: writable (contract).
+            unsafe {
+                buf.write(data);
+                len.write(n);
+            }
+            true
+        }
+        Ok(None) => false,
+        Err(e) => {
+            record(&e);
+            false
+        }
     }
 }

@@ -17,6 +17,7 @@ pub mod entities;
 pub mod layout;
 pub mod session;
 pub mod transport;
+pub mod types;
 pub mod ucdr;
 
 /// Without `std` (firmware), a panic stops the program; none is expected on any input.

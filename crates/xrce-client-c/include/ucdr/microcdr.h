@@ -1,7 +1,7 @@
 /*
  * Micro-CDR API of xrce-rs: the CDR (de)serialization functions that the Client API's callbacks and
  * generated topic types use, written from the Client API document (seed 000) and the function names
- * programs call. Implemented in Rust (crates/xrce-client-c/src/ucdr.rs) inside libmicroxrcedds_client.a;
+ * programs call. Implemented in Rust (crates/xrce-client-c/src/ucdr/) inside libmicroxrcedds_client.a;
  * libmicrocdr.a exists so that `-lmicroxrcedds_client -lmicrocdr` link lines keep working.
  *
  * Alignment is counted from `offset`: a buffer initialised with origin 0 aligns relative to its first byte,
@@ -13,21 +13,19 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <ucdr/config.h>
+#include <ucdr/visibility.h>
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
+/* UCDR_ENDIANNESS_INT_SIZE_ keeps the enum int-sized under -fshort-enums (ucdrBuffer's layout is fixed). */
 typedef enum ucdrEndianness {
     UCDR_BIG_ENDIANNESS = 0,
-    UCDR_LITTLE_ENDIANNESS = 1
+    UCDR_LITTLE_ENDIANNESS = 1,
+    UCDR_ENDIANNESS_INT_SIZE_ = 0x7FFFFFFF
 } ucdrEndianness;
-
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
-#define UCDR_MACHINE_ENDIANNESS UCDR_BIG_ENDIANNESS
-#else
-#define UCDR_MACHINE_ENDIANNESS UCDR_LITTLE_ENDIANNESS
-#endif
 
 struct ucdrBuffer;
 
@@ -59,9 +57,9 @@ void ucdr_set_on_full_buffer_callback(ucdrBuffer* ub, OnFullBuffer on_full_buffe
 void ucdr_reset_buffer(ucdrBuffer* ub);
 void ucdr_reset_buffer_offset(ucdrBuffer* ub, size_t offset);
 void ucdr_align_to(ucdrBuffer* ub, size_t data_size);
-uint32_t ucdr_alignment(size_t current_alignment, size_t data_size);
+size_t ucdr_alignment(size_t current_alignment, size_t data_size);
 size_t ucdr_buffer_alignment(const ucdrBuffer* ub, size_t data_size);
-bool ucdr_advance_buffer(ucdrBuffer* ub, size_t size);
+void ucdr_advance_buffer(ucdrBuffer* ub, size_t size);
 size_t ucdr_buffer_size(const ucdrBuffer* ub);
 size_t ucdr_buffer_length(const ucdrBuffer* ub);
 size_t ucdr_buffer_remaining(const ucdrBuffer* ub);

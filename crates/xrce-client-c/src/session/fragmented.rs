@@ -1,16 +1,23 @@
-//! `uxr_prepare_output_stream_fragmented`: a sample larger than the whole reliable history, serialized
-//! through a `ucdrBuffer` whose memory is a small window in the session. Each time the window is full
-//! (the buffer's on-full callback) its bytes go into the stream (`push_fragmented` of the Rust client) and,
-//! while the history has no room, the program's flush callback runs the session. The last window goes at the
-//! session's next call. Every announced byte is sent, zeros where nothing was written, as the seed says.
+//! Samples larger than one message, serialized in place through a `ucdrBuffer` whose memory is a small window
+//! in the session. Each time the window is full (the buffer's on-full callback) its bytes go into the reliable
+//! stream as FRAGMENT submessages (`push_fragmented` of the Rust client). Two ways in:
+//!
+//! * `uxr_prepare_output_stream_fragmented` (eProsima's 7 arguments, or the seed's 6): a sample larger than
+//!   the whole history; while the history has no room the program's flush callback runs the session;
+//! * `uxr_prepare_output_stream` of a sample larger than a message on a reliable stream: it must fit the
+//!   stream's free history whole (checked first, as eProsima's library does), so pushing never waits.
+//!
+//! The last window goes at the session's next call. Every announced byte is sent, zeros where nothing was
+//! written, as the seed says.
 
 use core::ffi::c_void;
 use core::ptr::{addr_of, addr_of_mut};
 
 use xrce_client::{StreamId, WriteAccess};
 
-use super::{slot, uxrSession, with_session};
-use crate::abi::{uxrObjectId, uxrStreamId};
+use super::public::{uxrContinuousArgs, OnBuffersFull};
+use super::{set_field, slot, uxrSession, with_session};
+use crate::abi::{uxrObjectId, uxrStreamId, OUTPUT_STREAM};
 use crate::ucdr::buffer::{ucdrBuffer, LITTLE};
 
 /// Bytes serialized between two pushes into the stream.
@@ -18,15 +25,42 @@ const WINDOW: usize = 64;
 /// Flush callbacks tried in a row without the history taking a byte before the write is given up.
 const MAX_FLUSHES: usize = 64;
 
-/// `uxrOnBuffersFull`.
-pub type OnBuffersFull = Option<unsafe extern "C" fn(*mut uxrSession) -> bool>;
+/// The seed's flush callback (`bool f(uxrSession*)`).
+pub type OnBuffersFullSeed = Option<unsafe extern "C" fn(*mut uxrSession) -> bool>;
+
+/// What runs the session when the history is full.
+#[derive(Debug, Clone, Copy)]
+enum Flush {
+    /// Nothing: the write was checked to fit.
+    Never,
+    /// The seed's one-argument callback.
+    Seed(unsafe extern "C" fn(*mut uxrSession) -> bool),
+    /// eProsima's callback and its argument.
+    WithArgs(unsafe extern "C" fn(*mut uxrSession, *mut c_void) -> bool, *mut c_void),
+}
+
+impl Flush {
+    /// Calls the callback; `None` when there is none.
+    ///
+    /// # Safety
+    /// `session` the session the callback was given with, not busy.
+    unsafe fn call(self, session: *mut uxrSession) -> Option<bool> {
+        match self {
+            Self::Never => None,
+            // SAFETY: the program's callback with its own session (contract).
+            Self::Seed(f) => Some(unsafe { f(session) }),
+            // SAFETY: as above, with the program's own argument.
+            Self::WithArgs(f, args) => Some(unsafe { f(session, args) }),
+        }
+    }
+}
 
 /// A fragmented write in progress.
 #[derive(Debug)]
 pub struct Fragment {
     active: bool,
     stream: StreamId,
-    flush: OnBuffersFull,
+    flush: Flush,
     /// Bytes of the sample not yet pushed, the window's included.
     left: usize,
     /// Bytes of the sample in the window.
@@ -37,7 +71,7 @@ pub struct Fragment {
 impl Fragment {
     /// No write in progress.
     pub const fn idle() -> Self {
-        Self { active: false, stream: StreamId::NONE, flush: None, left: 0, window_len: 0, window: [0; WINDOW] }
+        Self { active: false, stream: StreamId::NONE, flush: Flush::Never, left: 0, window_len: 0, window: [0; WINDOW] }
     }
 
     /// Opens the next window (zeroed) and points `ub` at it, its offset going on from where it was.
@@ -67,10 +101,12 @@ unsafe fn push_window(session: *mut uxrSession, fragment: &mut Fragment) -> bool
         let taken = unsafe { with_session(session, 0, |s| s.outputs().push_fragmented(stream, bytes).unwrap_or(0)) };
         sent += taken;
         if sent < fragment.window_len {
-            let Some(flush) = fragment.flush.filter(|_| flushes < MAX_FLUSHES) else { return false };
+            if flushes >= MAX_FLUSHES {
+                return false;
+            }
             flushes = if taken > 0 { 0 } else { flushes + 1 };
-            // SAFETY: the program's callback with its own session, which is not busy here.
-            if !unsafe { flush(session) } {
+            // SAFETY: the session is not busy here (contract).
+            if unsafe { fragment.flush.call(session) } != Some(true) {
                 return false;
             }
         }
@@ -113,6 +149,22 @@ unsafe fn push_window_guarded(session: *mut uxrSession, fragment: &mut Fragment)
     pushed
 }
 
+/// Ends the write of `session` (`continuous_args` cleared).
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+unsafe fn end(session: *mut uxrSession, fragment: &mut Fragment) {
+    fragment.active = false;
+    let idle = uxrContinuousArgs {
+        flush_callback: None,
+        flush_callback_args: core::ptr::null_mut(),
+        stream_id: uxrStreamId::none(OUTPUT_STREAM),
+        data_size: 0,
+    };
+    // SAFETY: contract; a named field.
+    unsafe { set_field(session, |s| field!(s, continuous_args), idle) };
+}
+
 /// Sends the last window of a fragmented write (at the session's next call), then zeros for whatever the
 /// program left unwritten.
 ///
@@ -124,7 +176,8 @@ pub unsafe fn finish_pending(session: *mut uxrSession) {
     while fragment.active {
         // SAFETY: contract.
         if !unsafe { push_window_guarded(session, fragment) } || fragment.left == 0 {
-            fragment.active = false;
+            // SAFETY: contract.
+            unsafe { end(session, fragment) };
         }
         fragment.window = [0; WINDOW];
         fragment.window_len = fragment.left.min(WINDOW);
@@ -134,22 +187,100 @@ pub unsafe fn finish_pending(session: *mut uxrSession) {
 /// The `ucdrBuffer`'s on-full callback: pushes the window, opens the next.
 ///
 /// # Safety
-/// `ub` the buffer prepared by [`uxr_prepare_output_stream_fragmented`], `args` its session.
+/// `ub` the buffer prepared by [`begin`], `args` its session.
 unsafe extern "C" fn on_window_full(ub: *mut ucdrBuffer, args: *mut c_void) -> bool {
     let session = args.cast::<uxrSession>();
     // SAFETY: contract.
     let (Some(ub), Some(fragment)) = (unsafe { ub.as_mut() }, unsafe { fragment(session) }) else { return true };
     // SAFETY: contract.
     if !fragment.active || !unsafe { push_window_guarded(session, fragment) } {
-        fragment.active = false;
+        // SAFETY: contract.
+        unsafe { end(session, fragment) };
         return true;
     }
     fragment.next_window(ub);
     fragment.window_len == 0
 }
 
-/// `uxr_prepare_output_stream_fragmented`: the request id, 0 on failure (best-effort stream, another write
-/// in progress, a bad session). Serialize into `ub`; `flush_callback` runs the session when the history is full.
+/// Starts a fragmented write of `data_size` bytes and points `ub` at its first window; the request id, 0 on
+/// failure (best-effort stream, another write in progress, a bad session, no room when `flush` is `Never`).
+///
+/// # Safety
+/// `session` null or a `uxrSession`, not busy; `ub` null or writable and used only for this sample.
+unsafe fn begin(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    entity_id: uxrObjectId,
+    ub: *mut ucdrBuffer,
+    data_size: usize,
+    flush: Flush,
+) -> u16 {
+    // SAFETY: contract.
+    unsafe { finish_pending(session) };
+    // SAFETY: contract.
+    let (Some(ub), Some(fragment)) = (unsafe { ub.as_mut() }, unsafe { fragment(session) }) else { return 0 };
+    *ub = ucdrBuffer::over(core::ptr::null_mut(), 0, 0, 0, LITTLE);
+    if fragment.active {
+        return 0;
+    }
+    let stream = stream_id.rust();
+    let mut flushes = 0;
+    let request = loop {
+        // SAFETY: contract.
+        let started = unsafe {
+            with_session(session, Err(xrce_client::Error::Busy), |s| {
+                let mut out = s.outputs();
+                match flush {
+                    Flush::Never => out.begin_fragmented_whole(stream, entity_id.rust(), data_size),
+                    _ => out.begin_fragmented(stream, entity_id.rust(), data_size),
+                }
+            })
+        };
+        match started {
+            Ok(request) => break request,
+            // The history is full now: as eProsima's library, let the flush callback make room first.
+            Err(xrce_client::Error::WouldBlock) if flushes < MAX_FLUSHES => {
+                flushes += 1;
+                // SAFETY: the session is not busy here (contract).
+                if unsafe { flush.call(session) } != Some(true) {
+                    return 0;
+                }
+            }
+            Err(_) => return 0,
+        }
+    };
+    *fragment = Fragment { active: true, stream, flush, left: data_size, ..Fragment::idle() };
+    fragment.next_window(ub);
+    ub.on_full_buffer = Some(on_window_full);
+    ub.args = session.cast();
+    let (flush_callback, flush_callback_args) = match flush {
+        Flush::WithArgs(f, args) => (Some(f), args),
+        _ => (None, core::ptr::null_mut()),
+    };
+    let args = uxrContinuousArgs { flush_callback, flush_callback_args, stream_id, data_size };
+    // SAFETY: contract; a named field.
+    unsafe { set_field(session, |s| field!(s, continuous_args), args) };
+    request
+}
+
+/// `uxr_prepare_output_stream` of a sample larger than a message on a reliable stream: fragments over the
+/// stream's slots, all of them free now (0 otherwise).
+///
+/// # Safety
+/// As [`begin`].
+pub unsafe fn prepare_whole(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    entity_id: uxrObjectId,
+    ub: *mut ucdrBuffer,
+    data_size: usize,
+) -> u16 {
+    // SAFETY: contract.
+    unsafe { begin(session, stream_id, entity_id, ub, data_size, Flush::Never) }
+}
+
+/// `uxr_prepare_output_stream_fragmented` (eProsima's form): the request id, 0 on failure. Serialize into
+/// `ub`; `flush_callback(session, flush_callback_args)` runs the session when the history is full.
 ///
 /// # Safety
 /// `session` null or a `uxrSession`; `ub` null or writable and used only for this sample.
@@ -161,24 +292,28 @@ pub unsafe extern "C" fn uxr_prepare_output_stream_fragmented(
     ub: *mut ucdrBuffer,
     data_size: usize,
     flush_callback: OnBuffersFull,
+    flush_callback_args: *mut c_void,
 ) -> u16 {
+    let flush = flush_callback.map_or(Flush::Never, |f| Flush::WithArgs(f, flush_callback_args));
     // SAFETY: contract.
-    let (Some(ub), Some(fragment)) = (unsafe { ub.as_mut() }, unsafe { fragment(session) }) else { return 0 };
-    *ub = ucdrBuffer::over(core::ptr::null_mut(), 0, 0, 0, LITTLE);
-    if fragment.active {
-        return 0;
-    }
-    let stream = stream_id.rust();
+    unsafe { begin(session, stream_id, entity_id, ub, data_size, flush) }
+}
+
+/// `uxr_prepare_output_stream_fragmented` as the seed's text writes it (a one-argument flush callback); the
+/// header's macro picks it for a call with six arguments.
+///
+/// # Safety
+/// As [`uxr_prepare_output_stream_fragmented`].
+#[no_mangle]
+pub unsafe extern "C" fn uxr_prepare_output_stream_fragmented_seed(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    entity_id: uxrObjectId,
+    ub: *mut ucdrBuffer,
+    data_size: usize,
+    flush_callback: OnBuffersFullSeed,
+) -> u16 {
+    let flush = flush_callback.map_or(Flush::Never, Flush::Seed);
     // SAFETY: contract.
-    let request = unsafe {
-        with_session(session, 0, |s| s.outputs().begin_fragmented(stream, entity_id.rust(), data_size).unwrap_or(0))
-    };
-    if request == 0 {
-        return 0;
-    }
-    *fragment = Fragment { active: true, stream, flush: flush_callback, left: data_size, ..Fragment::idle() };
-    fragment.next_window(ub);
-    ub.on_full_buffer = Some(on_window_full);
-    ub.args = session.cast();
-    request
+    unsafe { begin(session, stream_id, entity_id, ub, data_size, flush) }
 }

@@ -2,11 +2,14 @@
 
 use core::cell::Cell;
 use core::ffi::c_void;
+use core::ptr::addr_of_mut;
 
 use xrce_client::{Callbacks, ObjectId, Outputs, StreamId, TimeSample};
 
-use super::{uxrSession, with_session, CallbackOutputs};
-use crate::abi::{uxrObjectId, uxrStreamId, SampleIdentity, INPUT_STREAM};
+use super::public::{PONG_IN_SESSION, PONG_NO_SESSION};
+use super::{uxrSession, CallbackOutputs};
+use crate::abi::{uxrObjectId, uxrStreamId, INPUT_STREAM};
+use crate::types::SampleIdentity;
 use crate::ucdr::buffer::{ucdrBuffer, LITTLE};
 
 /// `uxrOnStatusFunc`.
@@ -24,57 +27,24 @@ pub type OnRequest = Option<
 pub type OnReply =
     Option<unsafe extern "C" fn(*mut uxrSession, uxrObjectId, u16, u16, *mut ucdrBuffer, u16, *mut c_void)>;
 
-/// A C callback and its user pointer.
-#[derive(Debug, Clone, Copy)]
-pub struct Hook<F> {
-    /// The function, if set.
-    pub func: F,
-    /// Its `args`.
-    pub args: *mut c_void,
-}
-
-impl<F: Default> Default for Hook<F> {
-    fn default() -> Self {
-        Self { func: F::default(), args: core::ptr::null_mut() }
-    }
-}
-
-/// The callbacks of one session.
+/// The callbacks of one session: the C functions are the session's own fields (`on_status`, ...), read
+/// when called, so a program may set them with `uxr_set_*_callback` or directly.
 #[derive(Debug)]
 pub struct Hooks {
     /// The C structure, handed to every callback.
     pub session: *mut uxrSession,
     in_callback: *const CallbackOutputs,
     last_request: *const Cell<Option<SampleIdentity>>,
-    /// `uxr_set_status_callback`.
-    pub status: Hook<OnStatus>,
-    /// `uxr_set_topic_callback`.
-    pub topic: Hook<OnTopic>,
-    /// `uxr_set_time_callback`.
-    pub time: Hook<OnTime>,
-    /// `uxr_set_request_callback`.
-    pub request: Hook<OnRequest>,
-    /// `uxr_set_reply_callback`.
-    pub reply: Hook<OnReply>,
 }
 
 impl Hooks {
-    /// No callback set yet.
+    /// Callbacks reading `session`'s fields.
     pub fn new(
         session: *mut uxrSession,
         in_callback: *const CallbackOutputs,
         last_request: *const Cell<Option<SampleIdentity>>,
     ) -> Self {
-        Self {
-            session,
-            in_callback,
-            last_request,
-            status: Hook::default(),
-            topic: Hook::default(),
-            time: Hook::default(),
-            request: Hook::default(),
-            reply: Hook::default(),
-        }
+        Self { session, in_callback, last_request }
     }
 
     /// Calls `call` with `out` lent to any `uxr_buffer_*` the C callback makes on this session.
@@ -84,6 +54,19 @@ impl Hooks {
         let previous = cell.replace(core::ptr::from_mut(out).cast());
         call(self.session);
         cell.set(previous);
+    }
+
+    /// Reads one of the session's named fields.
+    fn get<T: Copy>(&self, field: impl FnOnce(*mut uxrSession) -> *mut T) -> T {
+        // SAFETY: `session` is the initialised C structure the Rust session lives in; its named fields lie
+        // outside `_opaque` (the Rust session's memory) and are plain data the program may change between calls.
+        unsafe { field(self.session).read() }
+    }
+
+    /// Writes one of the session's named fields.
+    fn set<T>(&self, field: impl FnOnce(*mut uxrSession) -> *mut T, value: T) {
+        // SAFETY: as in `get`.
+        unsafe { field(self.session).write(value) }
     }
 }
 
@@ -95,7 +78,9 @@ fn reader(data: &[u8]) -> (ucdrBuffer, u16) {
 
 impl Callbacks for Hooks {
     fn on_status(&mut self, out: &mut Outputs<'_, '_>, object_id: ObjectId, request_id: u16, status: u8) {
-        let Hook { func: Some(f), args } = self.status else { return };
+        let (Some(f), args) = (self.get(|s| field!(s, on_status)), self.get(|s| field!(s, on_status_args))) else {
+            return;
+        };
         let object = uxrObjectId::from_rust(object_id);
         // SAFETY: the C program's callback with its own args; the session pointer is the one it initialised.
         self.lending(out, |s| unsafe { f(s, object, request_id, status, args) });
@@ -109,7 +94,10 @@ impl Callbacks for Hooks {
         stream_id: StreamId,
         data: &[u8],
     ) {
-        let Hook { func: Some(f), args } = self.topic else { return };
+        self.set(|s| field!(s, on_data_flag), true);
+        let (Some(f), args) = (self.get(|s| field!(s, on_topic)), self.get(|s| field!(s, on_topic_args))) else {
+            return;
+        };
         let (mut ub, len) = reader(data);
         let (object, stream) = (uxrObjectId::from_rust(object_id), uxrStreamId::from_rust(stream_id, INPUT_STREAM));
         // SAFETY: as in `on_status`; `ub` covers the payload, alive for the call, and is only read through.
@@ -127,7 +115,10 @@ impl Callbacks for Hooks {
         let mut sample = SampleIdentity::from_rust(sample_id);
         // SAFETY: `last_request` points into the session's own storage, alive while the session is.
         unsafe { &*self.last_request }.set(Some(sample));
-        let Hook { func: Some(f), args } = self.request else { return };
+        self.set(|s| field!(s, on_data_flag), true);
+        let (Some(f), args) = (self.get(|s| field!(s, on_request)), self.get(|s| field!(s, on_request_args))) else {
+            return;
+        };
         let (mut ub, len) = reader(data);
         let object = uxrObjectId::from_rust(object_id);
         // SAFETY: as in `on_topic`; `sample` lives for the call.
@@ -142,7 +133,10 @@ impl Callbacks for Hooks {
         reply_id: u16,
         data: &[u8],
     ) {
-        let Hook { func: Some(f), args } = self.reply else { return };
+        self.set(|s| field!(s, on_data_flag), true);
+        let (Some(f), args) = (self.get(|s| field!(s, on_reply)), self.get(|s| field!(s, on_reply_args))) else {
+            return;
+        };
         let (mut ub, len) = reader(data);
         let object = uxrObjectId::from_rust(object_id);
         // SAFETY: as in `on_topic`.
@@ -150,44 +144,61 @@ impl Callbacks for Hooks {
     }
 
     fn on_time(&mut self, t: &TimeSample) -> bool {
-        let Hook { func: Some(f), args } = self.time else { return false };
-        // SAFETY: as in `on_status` (nothing to lend: a time callback has no outputs).
-        unsafe { f(self.session, t.current, t.transmit, t.received, t.originate, args) };
+        let (f, args) = (self.get(|s| field!(s, on_time)), self.get(|s| field!(s, on_time_args)));
+        match f {
+            // eProsima's order: after the local time, the agent's receive time, then its transmit time. The
+            // callback owns `time_offset` (PX4 writes its own filtered estimate there).
+            // SAFETY: as in `on_status` (nothing to lend: a time callback has no outputs).
+            Some(f) => unsafe { f(self.session, t.current, t.received, t.transmit, t.originate, args) },
+            None => self.set(|s| field!(s, time_offset), t.offset()),
+        }
+        self.set(|s| field!(s, synchronized), true);
+        // The C session keeps the offset in its own field (uxr_epoch_nanos reads it): the Rust core's stays 0.
         true
+    }
+
+    fn on_pong(&mut self, in_session: bool) {
+        self.set(|s| field!(s, on_pong_flag), if in_session { PONG_IN_SESSION } else { PONG_NO_SESSION });
     }
 }
 
 macro_rules! setter {
-    ($(#[$m:meta])* $name:ident, $field:ident, $ty:ty) => {
+    ($(#[$m:meta])* $name:ident, $func:ident, $args:ident, $ty:ty) => {
         $(#[$m])*
         ///
         /// # Safety
         /// `session` null or a `uxrSession`; the callback and `args` stay valid while the session may call them.
         #[no_mangle]
         pub unsafe extern "C" fn $name(session: *mut uxrSession, func: $ty, args: *mut c_void) {
-            // SAFETY: contract.
-            unsafe { with_session(session, (), |s| s.callbacks().$field = Hook { func, args }) }
+            if session.is_null() {
+                return;
+            }
+            // SAFETY: non-null and a session (contract); named fields only, outside the Rust session's memory.
+            unsafe {
+                addr_of_mut!((*session).$func).write(func);
+                addr_of_mut!((*session).$args).write(args);
+            }
         }
     };
 }
 
 setter!(
     /// `uxr_set_status_callback`.
-    uxr_set_status_callback, status, OnStatus
+    uxr_set_status_callback, on_status, on_status_args, OnStatus
 );
 setter!(
     /// `uxr_set_topic_callback`.
-    uxr_set_topic_callback, topic, OnTopic
+    uxr_set_topic_callback, on_topic, on_topic_args, OnTopic
 );
 setter!(
-    /// `uxr_set_time_callback`: the callback takes over the clock offset computation, as in eProsima's client.
-    uxr_set_time_callback, time, OnTime
+    /// `uxr_set_time_callback`: the callback takes over `time_offset`, as in eProsima's client.
+    uxr_set_time_callback, on_time, on_time_args, OnTime
 );
 setter!(
     /// `uxr_set_request_callback`.
-    uxr_set_request_callback, request, OnRequest
+    uxr_set_request_callback, on_request, on_request_args, OnRequest
 );
 setter!(
     /// `uxr_set_reply_callback`.
-    uxr_set_reply_callback, reply, OnReply
+    uxr_set_reply_callback, on_reply, on_reply_args, OnReply
 );

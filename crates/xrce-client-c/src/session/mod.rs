@@ -1,8 +1,22 @@
-//! `uxrSession`: the Rust blocking session kept inside the C structure, and the functions every other part
-//! uses to reach it safely from a C pointer.
+//! `uxrSession`: eProsima's named fields (`public.rs`) followed by the Rust blocking session, kept in the
+//! structure's `_opaque` words, and the functions every other part uses to reach it safely from a C pointer.
+//! The named fields are the C program's: the library reads the callbacks and `time_offset` from them when it
+//! needs them and writes `info`, `synchronized`, the flags and the stream table as the session moves on.
+
+/// The address of a named field of a `uxrSession` pointer (nothing is read).
+macro_rules! field {
+    ($s:expr, $($f:ident).+) => {{
+        #[allow(unused_unsafe)] // also used inside callers' own unsafe blocks
+        // SAFETY: only an address inside the structure is computed (`addr_of_mut!` reads nothing); every
+        // caller passes a non-null pointer to a `uxrSession`.
+        let at = unsafe { core::ptr::addr_of_mut!((*$s).$($f).+) };
+        at
+    }};
+}
 
 mod fragmented;
 mod hooks;
+pub mod public;
 mod run;
 mod streams;
 
@@ -14,14 +28,18 @@ use xrce_client::{Outputs, Session, SessionState, WriteAccess};
 
 use crate::clock::{clock, SysClock};
 use crate::comm::{uxrCommunication, Comm};
-use crate::layout::SESSION_WORDS;
+pub use fragmented::prepare_whole;
 pub use hooks::Hooks;
+pub use public::uxrSession;
 
 /// Streams of each kind (`UXR_CONFIG_MAX_*_STREAMS`) and the message size of the session.
-const OBE: usize = 1;
-const ORE: usize = 1;
-const IBE: usize = 1;
-const IRE: usize = 1;
+pub const OBE: usize = 1;
+/// As [`OBE`].
+pub const ORE: usize = 1;
+/// As [`OBE`].
+pub const IBE: usize = 1;
+/// As [`OBE`].
+pub const IRE: usize = 1;
 const MTU: usize = 512;
 
 /// The Rust session behind a `uxrSession`.
@@ -29,13 +47,6 @@ pub type Inner = Session<'static, Comm, SysClock, Hooks, OBE, ORE, IBE, IRE, MTU
 
 /// Outputs lent to a callback, seen from outside the callback.
 type CallbackOutputs = Cell<*mut Outputs<'static, 'static>>;
-
-/// `uxrSession`: storage the C program declares.
-#[repr(C)]
-#[allow(non_camel_case_types)]
-pub struct uxrSession {
-    _opaque: [u64; SESSION_WORDS],
-}
 
 /// Marks storage that `uxr_init_session` filled (with the storage's own address beside it).
 const MAGIC: u64 = 0x7872_6365_2d72_7331;
@@ -49,7 +60,7 @@ struct Slot {
     /// While a call holds the Rust session: a callback calling back into a running function gets its error value.
     busy: Cell<bool>,
     /// The identity of the last request received (`uxr_buffer_reply` in the seed's form answers it).
-    last_request: Cell<Option<crate::abi::SampleIdentity>>,
+    last_request: Cell<Option<crate::types::SampleIdentity>>,
     /// A `uxr_prepare_output_stream_fragmented` write in progress.
     fragment: fragmented::Fragment,
     /// While its window is pushed (the flush callback may run the session, which must not push it again).
@@ -57,18 +68,25 @@ struct Slot {
     session: Inner,
 }
 
-const _: () = assert!(size_of::<Slot>() <= size_of::<uxrSession>(), "UXR_SESSION_OPAQUE_WORDS too small");
-const _: () = assert!(align_of::<Slot>() <= align_of::<uxrSession>());
+const _: () = assert!(size_of::<Slot>() <= 8 * crate::layout::SESSION_WORDS, "UXR_SESSION_OPAQUE_WORDS too small");
+const _: () = assert!(align_of::<Slot>() <= 8);
+
+/// Where the slot of `session` lives: its `_opaque` words (no memory is read).
+fn slot_at(session: *mut uxrSession) -> *mut Slot {
+    // SAFETY: only an address inside the structure is computed (`addr_of_mut!` reads nothing); callers pass
+    // non-null pointers to a `uxrSession`.
+    unsafe { addr_of_mut!((*session)._opaque) }.cast::<Slot>()
+}
 
 /// The slot of an initialised session, `None` for null or storage `uxr_init_session` did not fill.
 ///
 /// # Safety
 /// `session` is null or points to a `uxrSession` (readable memory of its size).
 unsafe fn slot(session: *mut uxrSession) -> Option<*mut Slot> {
-    let slot = session.cast::<Slot>();
-    if slot.is_null() {
+    if session.is_null() {
         return None;
     }
+    let slot = slot_at(session);
     // SAFETY: `slot` points to readable memory of the session's size (contract), which holds these fields.
     let (magic, this) = unsafe { (addr_of!((*slot).magic).read(), addr_of!((*slot).this).read()) };
     (magic == MAGIC && this == session.cast_const()).then_some(slot)
@@ -92,8 +110,27 @@ pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnO
     let inner = unsafe { &mut *addr_of_mut!((*slot).session) };
     inner.callbacks().session = session;
     let result = f(inner);
+    // SAFETY: an initialised session; the named fields lie outside the Rust session's memory.
+    unsafe { publish(session, inner) };
     busy.set(false);
     result
+}
+
+/// Brings `info` up to date after a call: the session id, the key and the last request id, as the Rust
+/// session has them.
+///
+/// # Safety
+/// `session` an initialised `uxrSession` whose Rust session is `inner`.
+unsafe fn publish(session: *mut uxrSession, inner: &mut Inner) {
+    let core = inner.core();
+    let (id, key, last) = (core.session_id(), core.client_key(), core.last_request_id());
+    // SAFETY: contract; named fields only.
+    unsafe {
+        let info = addr_of_mut!((*session).info);
+        addr_of_mut!((*info).id).write(id);
+        addr_of_mut!((*info).key).write(key.0);
+        addr_of_mut!((*info).last_request_id).write(last);
+    }
 }
 
 /// Runs `f` on the output streams of `session`: inside a callback those lent to it, otherwise the session's
@@ -117,6 +154,8 @@ pub unsafe fn with_outputs<R>(
     }
     // SAFETY: contract.
     unsafe {
+        // A sample still being serialized through a window goes into the stream before anything after it.
+        fragmented::finish_pending(session);
         with_session(session, None, |s| {
             (!matches!(s.core().state(), SessionState::Deleted | SessionState::Deleting)).then(|| f(s.outputs()))
         })
@@ -128,7 +167,7 @@ pub unsafe fn with_outputs<R>(
 ///
 /// # Safety
 /// `session` null or a `uxrSession`.
-pub unsafe fn last_request(session: *mut uxrSession) -> Option<crate::abi::SampleIdentity> {
+pub unsafe fn last_request(session: *mut uxrSession) -> Option<crate::types::SampleIdentity> {
     // SAFETY: contract.
     let slot = unsafe { slot(session) }?;
     // SAFETY: an initialised slot; the field is only reached through shared references.
@@ -136,7 +175,8 @@ pub unsafe fn last_request(session: *mut uxrSession) -> Option<crate::abi::Sampl
 }
 
 /// `uxr_init_session`: a session for client `key` over `comm`, which must outlive it. Reconnection is off, as
-/// in eProsima's client (programs carry their own ping-and-recreate logic).
+/// in eProsima's client (programs carry their own ping-and-recreate logic). The named fields start as
+/// eProsima's do: no callbacks, offset 0, not synchronised, `info` with session id 0x81 and the key.
 ///
 /// # Safety
 /// `session` null or writable storage of a `uxrSession`; `comm` null or a communication that outlives the session.
@@ -154,7 +194,7 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
         // SAFETY: the storage holds a session initialised here and not in use: drop it (its heap bookkeeping).
         unsafe { core::ptr::drop_in_place(old) };
     }
-    let slot = session.cast::<Slot>();
+    let slot = slot_at(session);
     // SAFETY: only the fields' addresses are taken, inside the storage.
     let (in_callback, last_request) = unsafe { (addr_of!((*slot).in_callback), addr_of!((*slot).last_request)) };
     let hooks = Hooks::new(session, in_callback, last_request);
@@ -171,7 +211,46 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
         pushing: Cell::new(false),
         session: inner,
     };
+    // SAFETY: `session` is writable (contract). Its named fields are plain data: all zero is eProsima's
+    // initial state (null callbacks, offset 0, flags clear, empty stream table) but for what is set after.
+    unsafe {
+        core::ptr::write_bytes(session.cast::<u8>(), 0, core::mem::offset_of!(uxrSession, _opaque));
+        addr_of_mut!((*session).comm).write(comm);
+        addr_of_mut!((*session).info).write(public::uxrSessionInfo {
+            id: 0x81,
+            key: key.to_be_bytes(),
+            last_requested_status: public::STATUS_NONE,
+            last_request_id: 9,
+        });
+    }
     // SAFETY: `slot` is writable storage large and aligned enough (checked above at compile time); `write`
     // does not drop what was there.
     unsafe { slot.write(value) };
+}
+
+/// Writes one named field of an initialised or null session.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+pub unsafe fn set_field<T>(session: *mut uxrSession, field: impl FnOnce(*mut uxrSession) -> *mut T, value: T) {
+    if !session.is_null() {
+        // SAFETY: contract; named fields lie outside the Rust session's memory.
+        unsafe { field(session).write(value) };
+    }
+}
+
+/// Reads one named field (`fallback` for null).
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+pub unsafe fn get_field<T: Copy>(
+    session: *mut uxrSession,
+    fallback: T,
+    field: impl FnOnce(*mut uxrSession) -> *mut T,
+) -> T {
+    if session.is_null() {
+        return fallback;
+    }
+    // SAFETY: contract.
+    unsafe { field(session).read() }
 }

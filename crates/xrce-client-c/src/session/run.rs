@@ -1,7 +1,8 @@
 //! Creating and deleting the session, the `uxr_run_session_*` family, time and ping.
 
 use super::fragmented::finish_pending;
-use super::{uxrSession, with_session, Inner};
+use super::public::{NO_PONG, STATUS_NONE};
+use super::{get_field, set_field, uxrSession, with_session, Inner};
 use crate::comm::{uxrCommunication, Comm};
 
 /// [`with_session`] for the functions that send: the last window of a fragmented write goes first.
@@ -37,7 +38,26 @@ macro_rules! run_fn {
 #[no_mangle]
 pub unsafe extern "C" fn uxr_create_session(session: *mut uxrSession) -> bool {
     // SAFETY: contract.
-    unsafe { with_session(session, false, |s| s.create_session().is_ok()) }
+    unsafe { session_request(session, |s| s.create_session().map(|()| true)) }
+}
+
+/// Runs a create or delete of the session and records its status in `info.last_requested_status`, as
+/// eProsima's library does: `UXR_STATUS_OK`, the agent's refusal, or `UXR_STATUS_NONE` without an answer.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+unsafe fn session_request(session: *mut uxrSession, f: impl FnOnce(&mut Inner) -> xrce_client::Result<bool>) -> bool {
+    // SAFETY: contract.
+    let (ok, status) = unsafe {
+        sending(session, (false, STATUS_NONE), |s| match f(s) {
+            Ok(done) => (done, if done { 0 } else { STATUS_NONE }),
+            Err(xrce_client::Error::Refused(code)) => (false, code),
+            Err(_) => (false, STATUS_NONE),
+        })
+    };
+    // SAFETY: contract; a named field.
+    unsafe { set_field(session, |s| field!(s, info.last_requested_status), status) };
+    ok
 }
 
 /// `uxr_create_session_retries`.
@@ -47,7 +67,7 @@ pub unsafe extern "C" fn uxr_create_session(session: *mut uxrSession) -> bool {
 #[no_mangle]
 pub unsafe extern "C" fn uxr_create_session_retries(session: *mut uxrSession, retries: usize) -> bool {
     // SAFETY: contract.
-    unsafe { with_session(session, false, |s| s.create_session_retries(retries).is_ok()) }
+    unsafe { session_request(session, |s| s.create_session_retries(retries).map(|()| true)) }
 }
 
 /// `uxr_delete_session`: whether the agent confirmed.
@@ -57,7 +77,7 @@ pub unsafe extern "C" fn uxr_create_session_retries(session: *mut uxrSession, re
 #[no_mangle]
 pub unsafe extern "C" fn uxr_delete_session(session: *mut uxrSession) -> bool {
     // SAFETY: contract.
-    unsafe { sending(session, false, |s| s.delete_session().unwrap_or(false)) }
+    unsafe { session_request(session, Inner::delete_session) }
 }
 
 /// `uxr_delete_session_retries`.
@@ -67,7 +87,7 @@ pub unsafe extern "C" fn uxr_delete_session(session: *mut uxrSession) -> bool {
 #[no_mangle]
 pub unsafe extern "C" fn uxr_delete_session_retries(session: *mut uxrSession, retries: usize) -> bool {
     // SAFETY: contract.
-    unsafe { with_session(session, false, |s| s.delete_session_retries(retries).unwrap_or(false)) }
+    unsafe { session_request(session, |s| s.delete_session_retries(retries)) }
 }
 
 /// `uxr_flash_output_streams`.
@@ -100,14 +120,35 @@ run_fn!(
     /// `uxr_run_session_until_confirm_delivery`.
     uxr_run_session_until_confirm_delivery => run_session_until_confirm_delivery
 );
-run_fn!(
-    /// `uxr_run_session_until_data`.
-    uxr_run_session_until_data => run_session_until_data
-);
-run_fn!(
-    /// `uxr_sync_session`: whether the agent answered.
-    uxr_sync_session => sync_session
-);
+/// `uxr_run_session_until_data`: clears `on_data_flag`, which the next sample, request or reply sets.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+#[no_mangle]
+pub unsafe extern "C" fn uxr_run_session_until_data(session: *mut uxrSession, timeout_ms: i32) -> bool {
+    // SAFETY: contract.
+    unsafe {
+        set_field(session, |s| field!(s, on_data_flag), false);
+        sending(session, false, |s| s.run_session_until_data(timeout_ms).unwrap_or(false))
+    }
+}
+
+/// `uxr_sync_session`: one TIMESTAMP, then waits up to `timeout_ms` for the reply; `synchronized` tells.
+/// Without a time callback the library sets `time_offset`; with one, the callback does.
+///
+/// # Safety
+/// `session` null or a `uxrSession`.
+#[no_mangle]
+pub unsafe extern "C" fn uxr_sync_session(session: *mut uxrSession, timeout_ms: i32) -> bool {
+    // SAFETY: contract.
+    unsafe {
+        set_field(session, |s| field!(s, synchronized), false);
+        sending(session, (), |s| {
+            let _ = s.sync_session(timeout_ms);
+        });
+        get_field(session, false, |s| field!(s, synchronized))
+    }
+}
 
 /// The request and status lists of the `until_*_status` functions; `None` when either is null (with a size).
 ///
@@ -141,8 +182,22 @@ unsafe fn until_status(
 ) -> bool {
     // SAFETY: contract.
     let Some((requests, statuses)) = (unsafe { lists(request_list, status_list, list_size) }) else { return false };
+    // The lists are visible in the session while the call runs, as in eProsima's library.
+    // SAFETY: contract; named fields.
+    unsafe {
+        set_field(session, |s| field!(s, request_list), request_list);
+        set_field(session, |s| field!(s, status_list), status_list);
+        set_field(session, |s| field!(s, request_status_list_size), list_size);
+    }
     // SAFETY: contract.
-    unsafe { sending(session, false, |s| wait(s, timeout_ms, requests, statuses).unwrap_or(false)) }
+    let done = unsafe { sending(session, false, |s| wait(s, timeout_ms, requests, statuses).unwrap_or(false)) };
+    // SAFETY: contract; named fields.
+    unsafe {
+        set_field(session, |s| field!(s, request_list), core::ptr::null());
+        set_field(session, |s| field!(s, status_list), core::ptr::null_mut());
+        set_field(session, |s| field!(s, request_status_list_size), 0);
+    }
+    done
 }
 
 /// `uxr_run_session_until_all_status`.
@@ -185,34 +240,45 @@ pub unsafe extern "C" fn uxr_run_session_until_one_status(
     }
 }
 
-/// `uxr_epoch_millis`: the agent's clock after `uxr_sync_session` (the local one before); 0 for a bad session.
+/// `uxr_epoch_millis`: the agent's clock, milliseconds (the local one minus `time_offset`, which
+/// `uxr_sync_session` or the program's time callback sets); 0 for a null session.
 ///
 /// # Safety
 /// `session` null or a `uxrSession`.
 #[no_mangle]
 pub unsafe extern "C" fn uxr_epoch_millis(session: *mut uxrSession) -> i64 {
     // SAFETY: contract.
-    unsafe { with_session(session, 0, |s| s.epoch_millis()) }
+    unsafe { uxr_epoch_nanos(session) / 1_000_000 }
 }
 
-/// `uxr_epoch_nanos`.
+/// `uxr_epoch_nanos`: the agent's clock, nanoseconds: `uxr_nanos() - session->time_offset`.
 ///
 /// # Safety
 /// `session` null or a `uxrSession`.
 #[no_mangle]
 pub unsafe extern "C" fn uxr_epoch_nanos(session: *mut uxrSession) -> i64 {
-    // SAFETY: contract.
-    unsafe { with_session(session, 0, |s| s.epoch_nanos()) }
+    if session.is_null() {
+        return 0;
+    }
+    // SAFETY: contract; a named field.
+    let offset = unsafe { get_field(session, 0, |s| field!(s, time_offset)) };
+    crate::clock::uxr_nanos().saturating_sub(offset)
 }
 
-/// `uxr_ping_agent_session`.
+/// `uxr_ping_agent_session`: GET_INFO inside the session, `attempts` times, each waiting up to `timeout_ms`;
+/// whether the agent answered knowing the session. `on_pong_flag` is cleared first and set by the answer,
+/// also when it arrives after this call returns (a later run function processes it): PX4 pings with
+/// `timeout_ms` 0 and reads the flag after its next run.
 ///
 /// # Safety
 /// `session` null or a `uxrSession`.
 #[no_mangle]
 pub unsafe extern "C" fn uxr_ping_agent_session(session: *mut uxrSession, timeout_ms: i32, attempts: u8) -> bool {
     // SAFETY: contract.
-    unsafe { with_session(session, false, |s| s.ping_agent_session(timeout_ms, attempts).unwrap_or(false)) }
+    unsafe {
+        set_field(session, |s| field!(s, on_pong_flag), NO_PONG);
+        with_session(session, false, |s| s.ping_agent_session(timeout_ms, attempts).unwrap_or(false))
+    }
 }
 
 /// `uxr_ping_agent`: one GET_INFO outside any session.

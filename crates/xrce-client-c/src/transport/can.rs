@@ -5,7 +5,9 @@ use core::ptr::addr_of_mut;
 
 use xrce_client::transport::{CanTransport, SocketCan};
 
-use super::{fits, install, uxrCANTransport, Opened};
+use std::os::fd::AsRawFd;
+
+use super::{binding, fits, install, uxrCANTransport, CanPlatform, Opened, PollFd};
 use crate::entities::text;
 use crate::layout::CAN_WORDS;
 
@@ -28,14 +30,18 @@ pub unsafe extern "C" fn uxr_init_can_transport(
     }
     // SAFETY: contract.
     let Some(dev) = (unsafe { text(dev) }) else { return false };
-    let Ok(can) = Can::new(dev, can_id) else { return false };
+    let Ok(mut can) = Can::new(dev, can_id) else { return false };
+    let platform = CanPlatform { poll_fd: PollFd::input(can.socket().as_raw_fd()), can_id };
     // SAFETY: non-null, writable (contract); the opaque words fit (checked above) and are 8-aligned.
     unsafe {
+        addr_of_mut!((*transport).platform).write(platform);
         let storage = addr_of_mut!((*transport).opaque).cast::<Opened<Can>>();
-        install(storage, addr_of_mut!((*transport).comm), can);
+        install(transport, storage, addr_of_mut!((*transport).comm), can);
     }
     true
 }
+
+binding!(uxrCANTransport, Can, buffer);
 
 super::close_function!(
     /// `uxr_close_can_transport`: closes the socket.

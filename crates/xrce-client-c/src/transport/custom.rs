@@ -5,7 +5,7 @@ use core::ptr::addr_of_mut;
 
 use xrce_client::{CustomIo, CustomTransport, TransportError};
 
-use super::{close, fits, install, Opened};
+use super::{binding, close, fits, install, Opened};
 use crate::comm::uxrCommunication;
 use crate::layout::CUSTOM_WORDS;
 
@@ -17,8 +17,8 @@ type Read = Option<unsafe extern "C" fn(*mut uxrCustomTransport, *mut u8, usize,
 #[repr(C)]
 #[allow(non_camel_case_types)]
 pub struct uxrCustomTransport {
-    /// What `uxr_init_custom_transport` was given.
-    pub args: *mut c_void,
+    /// The last message received.
+    pub buffer: [u8; super::MTU],
     /// Stream-oriented (HDLC-like framing) rather than packet-oriented.
     pub framing: bool,
     /// Opens the medium.
@@ -29,16 +29,19 @@ pub struct uxrCustomTransport {
     pub write: Write,
     /// Reads bytes.
     pub read: Read,
-    opaque: [u64; CUSTOM_WORDS],
     /// The function table sessions use.
     pub comm: uxrCommunication,
+    /// What `uxr_init_custom_transport` was given.
+    pub args: *mut c_void,
+    /// The Rust transport.
+    pub(crate) opaque: [u64; CUSTOM_WORDS],
 }
 
 /// The program's callbacks, called with its transport structure.
 #[derive(Debug)]
-struct Callbacks(*mut uxrCustomTransport);
+pub struct Callbacks(*mut uxrCustomTransport);
 
-type Transport = CustomTransport<Callbacks, 512>;
+pub type Transport = CustomTransport<Callbacks, 512>;
 
 const _: () = assert!(fits::<Transport>(CUSTOM_WORDS), "UXR_CUSTOM_TRANSPORT_OPAQUE_WORDS too small");
 
@@ -85,6 +88,8 @@ impl CustomIo for Callbacks {
     }
 }
 
+binding!(uxrCustomTransport, Transport, buffer);
+
 /// `uxr_set_custom_transport_callbacks`: to call before `uxr_init_custom_transport`.
 ///
 /// # Safety
@@ -128,7 +133,7 @@ pub unsafe extern "C" fn uxr_init_custom_transport(transport: *mut uxrCustomTran
     // SAFETY: the opaque words fit (checked above) and are 8-aligned; the structure stays in place (contract).
     unsafe {
         let storage = addr_of_mut!((*transport).opaque).cast::<Opened<Transport>>();
-        install(storage, addr_of_mut!((*transport).comm), custom);
+        install(transport, storage, addr_of_mut!((*transport).comm), custom);
     }
     true
 }

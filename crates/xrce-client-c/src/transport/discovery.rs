@@ -5,36 +5,34 @@ use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 
 use xrce_client::transport::discovery;
 
-use crate::abi::{TransportLocator, LOCATOR_IPV4, LOCATOR_IPV6};
 use crate::entities::text;
+use crate::types::{TransportLocator, ADDRESS_FORMAT_LARGE, ADDRESS_FORMAT_MEDIUM};
 
 type OnAgentFound = Option<unsafe extern "C" fn(*const TransportLocator, *mut c_void) -> bool>;
 
 fn locator(addr: SocketAddr) -> TransportLocator {
-    let mut address = [0u8; 16];
-    let format = match addr.ip() {
-        IpAddr::V4(ip) => {
-            address[..4].copy_from_slice(&ip.octets());
-            LOCATOR_IPV4
-        }
-        IpAddr::V6(ip) => {
-            address = ip.octets();
-            LOCATOR_IPV6
-        }
-    };
-    TransportLocator { format, address, port: addr.port() }
+    match addr.ip() {
+        IpAddr::V4(ip) => TransportLocator::medium(ip.octets(), addr.port()),
+        IpAddr::V6(ip) => TransportLocator::large(ip.octets(), addr.port()),
+    }
 }
 
 fn address(l: &TransportLocator) -> Option<SocketAddr> {
-    let ip = match l.format {
-        LOCATOR_IPV4 => {
-            let [a, b, c, d, ..] = l.address;
-            IpAddr::V4(Ipv4Addr::new(a, b, c, d))
+    match l.format {
+        ADDRESS_FORMAT_MEDIUM => {
+            // SAFETY: `format` says the medium member is the one written (the program's promise, as in C);
+            // every bit pattern is a valid value of it.
+            let m = unsafe { l._u.medium_locator };
+            Some(SocketAddr::new(IpAddr::V4(Ipv4Addr::from(m.address)), m.locator_port))
         }
-        LOCATOR_IPV6 => IpAddr::V6(Ipv6Addr::from(l.address)),
-        _ => return None,
-    };
-    Some(SocketAddr::new(ip, l.port))
+        ADDRESS_FORMAT_LARGE => {
+            // SAFETY: as above, the large member.
+            let m = unsafe { l._u.large_locator };
+            let port = u16::try_from(m.locator_port).ok()?;
+            Some(SocketAddr::new(IpAddr::V6(Ipv6Addr::from(m.address)), port))
+        }
+        _ => None,
+    }
 }
 
 /// Runs discovery towards `agents` (the multicast group when empty), calling `on_agent` for each agent found.

@@ -6,7 +6,7 @@ use std::os::fd::FromRawFd;
 
 use xrce_client::transport::SerialTransport;
 
-use super::{fits, install, uxrSerialTransport, Opened};
+use super::{binding, fits, install, uxrSerialTransport, Opened, Platform, PollFd};
 use crate::layout::SERIAL_WORDS;
 
 const _: () = assert!(fits::<SerialTransport>(SERIAL_WORDS), "UXR_SERIAL_TRANSPORT_OPAQUE_WORDS too small");
@@ -31,11 +31,15 @@ pub unsafe extern "C" fn uxr_init_serial_transport(
     let serial = SerialTransport::from_file(file, remote_addr, local_addr);
     // SAFETY: the opaque words fit (checked above) and are 8-aligned; the structure stays in place (contract).
     unsafe {
+        addr_of_mut!((*transport).remote_addr).write(remote_addr);
+        addr_of_mut!((*transport).platform).write(Platform { poll_fd: PollFd::input(fd) });
         let storage = addr_of_mut!((*transport).opaque).cast::<Opened<SerialTransport>>();
-        install(storage, addr_of_mut!((*transport).comm), serial);
+        install(transport, storage, addr_of_mut!((*transport).comm), serial);
     }
     true
 }
+
+binding!(uxrSerialTransport, SerialTransport, buffer);
 
 super::close_function!(
     /// `uxr_close_serial_transport`: closes the descriptor.

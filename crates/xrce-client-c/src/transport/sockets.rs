@@ -2,11 +2,12 @@
 
 use core::ffi::c_char;
 use core::ptr::addr_of_mut;
+use std::os::fd::AsRawFd;
 
 use xrce_client::transport::{IpProtocol, TcpTransport, UdpTransport};
 use xrce_client::TransportError;
 
-use super::{fits, install, uxrTCPTransport, uxrUDPTransport, Opened};
+use super::{binding, fits, install, uxrTCPTransport, uxrUDPTransport, Opened, Platform, PollFd};
 use crate::entities::text;
 use crate::layout::{TCP_WORDS, UDP_WORDS};
 
@@ -47,10 +48,12 @@ macro_rules! socket_transport {
             }
             // SAFETY: contract.
             let Some(t) = (unsafe { open_with(ip_protocol, ip, port, <$rust>::new) }) else { return false };
+            let platform = Platform { poll_fd: PollFd::input(t.as_raw_fd()) };
             // SAFETY: non-null, writable (contract); the opaque words fit (checked above) and are 8-aligned.
             unsafe {
+                addr_of_mut!((*transport).platform).write(platform);
                 let storage = addr_of_mut!((*transport).opaque).cast::<Opened<$rust>>();
-                install(storage, addr_of_mut!((*transport).comm), t);
+                install(transport, storage, addr_of_mut!((*transport).comm), t);
             }
             true
         }
@@ -66,3 +69,24 @@ macro_rules! socket_transport {
 
 socket_transport!(uxrUDPTransport, UdpTransport, uxr_init_udp_transport, uxr_close_udp_transport);
 socket_transport!(uxrTCPTransport, TcpTransport, uxr_init_tcp_transport, uxr_close_tcp_transport);
+
+binding!(uxrUDPTransport, UdpTransport, buffer);
+
+impl crate::comm::Binding for uxrTCPTransport {
+    type Rust = Opened<TcpTransport>;
+
+    /// Also keeps `platform.poll_fd.fd` on the connected socket: the transport reconnects on a new one when
+    /// the agent goes away.
+    unsafe fn parts(this: *mut Self) -> (*mut Self::Rust, *mut u8, usize) {
+        // SAFETY: the live structure (contract): addresses inside it, and its Rust transport, which no other
+        // reference reaches during this call.
+        unsafe {
+            let rust = addr_of_mut!((*this).opaque).cast::<Opened<TcpTransport>>();
+            if let Some(t) = (*rust).0.as_ref() {
+                addr_of_mut!((*this).platform.poll_fd.fd).write(t.as_raw_fd());
+            }
+            let buffer = addr_of_mut!((*this).input_buffer.buffer);
+            (rust, buffer.cast::<u8>(), core::mem::size_of_val(&*buffer))
+        }
+    }
+}

@@ -258,8 +258,8 @@ pub unsafe extern "C" fn ucdr_align_to(ub: *mut ucdrBuffer, size: usize) {
 
 /// `ucdr_alignment`: padding before a value of `data_size` bytes at `current_alignment`.
 #[no_mangle]
-pub extern "C" fn ucdr_alignment(current_alignment: usize, data_size: usize) -> u32 {
-    u32::try_from(alignment(current_alignment, data_size)).unwrap_or(0)
+pub extern "C" fn ucdr_alignment(current_alignment: usize, data_size: usize) -> usize {
+    alignment(current_alignment, data_size)
 }
 
 /// `ucdr_buffer_alignment`: padding before a value of `data_size` bytes at the iterator.
@@ -272,14 +272,17 @@ pub unsafe extern "C" fn ucdr_buffer_alignment(ub: *const ucdrBuffer, data_size:
     unsafe { buffer_ref(ub) }.map_or(0, |ub| alignment(ub.offset, data_size))
 }
 
-/// `ucdr_advance_buffer`: skips `size` bytes (left as they are); `false` when they do not fit.
+/// `ucdr_advance_buffer`: skips `size` bytes (left as they are); the buffer's `error` is set when they do not
+/// fit.
 ///
 /// # Safety
 /// `ub` null or valid.
 #[no_mangle]
-pub unsafe extern "C" fn ucdr_advance_buffer(ub: *mut ucdrBuffer, size: usize) -> bool {
+pub unsafe extern "C" fn ucdr_advance_buffer(ub: *mut ucdrBuffer, size: usize) {
     // SAFETY: contract.
-    unsafe { buffer_mut(ub) }.is_some_and(|ub| ub.take(1, size).is_some())
+    if let Some(ub) = unsafe { buffer_mut(ub) } {
+        let _ = ub.take(1, size);
+    }
 }
 
 /// `ucdr_buffer_size`: bytes of memory.

@@ -1,4 +1,4 @@
 //! Micro-CDR (include/ucdr/microcdr.h): `ucdrBuffer` and the `ucdr_*` functions.
 
 pub mod buffer;
-mod primitives;
+pub mod primitives;

@@ -99,9 +99,10 @@ int main(int argc, char** argv) {
         fprintf(stderr, "fragmented write failed\n");
         return 1;
     }
-    /* a second write while one is open is refused; best-effort streams are refused */
+    /* best-effort streams are refused (a second write would end this one: the program has serialized it) */
     ucdrBuffer other;
-    if (uxr_prepare_output_stream_fragmented(&publisher.session, publisher.out, uxr_object_id(1, UXR_DATAWRITER_ID),
+    if (uxr_prepare_output_stream_fragmented(&publisher.session, uxr_stream_id(0, UXR_BEST_EFFORT_STREAM,
+                                             UXR_OUTPUT_STREAM), uxr_object_id(1, UXR_DATAWRITER_ID),
                                              &other, 8, flush) != UXR_INVALID_REQUEST_ID) {
         return 1;
     }

@@ -105,6 +105,12 @@ pub trait Callbacks {
         false
     }
 
+    /// The agent answered a ping and is available (an INFO with agent activity), whether or not this session
+    /// asked; `in_session` when it knows this session (eProsima's `on_pong_flag`).
+    fn on_pong(&mut self, in_session: bool) {
+        let _ = in_session;
+    }
+
     /// Bookkeeping hook: a request got a status (STATUS, or `STATUS_OK` for each DATA answering a READ_DATA).
     /// The blocking session uses it for `run_session_until_*_status`.
     fn on_request_status(&mut self, request_id: u16, status: u8) {
@@ -161,6 +167,9 @@ impl<T: Callbacks + ?Sized> Callbacks for &mut T {
     }
     fn on_time(&mut self, sample: &TimeSample) -> bool {
         (**self).on_time(sample)
+    }
+    fn on_pong(&mut self, in_session: bool) {
+        (**self).on_pong(in_session);
     }
     fn on_request_status(&mut self, request_id: u16, status: u8) {
         (**self).on_request_status(request_id, status);
@@ -420,8 +429,9 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         self.st.out_rel.iter_mut().flatten().for_each(OutputReliable::flush);
     }
 
-    /// The last request id handed out; it changes with every write into the output streams.
-    pub(crate) const fn last_request_id(&self) -> u16 {
+    /// The last request id handed out (eProsima's `uxrSessionInfo.last_request_id`); it changes with every
+    /// write into the output streams.
+    pub const fn last_request_id(&self) -> u16 {
         self.st.last_request_id
     }
 
@@ -1001,10 +1011,14 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                 cb.on_status(&mut st.outputs(), reply.related_request.object_id, request, status);
                 cb.on_request_status(request, status);
             }
-            Submessage::Info(info) if st.ping == PingState::Pending => {
+            Submessage::Info(info) => {
                 let available =
                     matches!(info.activity, Some(ActivityInfo::Agent { availability, .. }) if availability > 0);
-                if available && info.reply.result.implementation_status != 0 {
+                let in_session = info.reply.result.implementation_status != 0;
+                if available {
+                    cb.on_pong(in_session);
+                }
+                if available && in_session && st.ping == PingState::Pending {
                     st.ping = PingState::Answered;
                     st.ping_retry = None;
                 }

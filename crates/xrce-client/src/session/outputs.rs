@@ -554,6 +554,17 @@ impl<'s, 'a> Outputs<'s, 'a> {
         })
     }
 
+    /// [`begin_fragmented`](Self::begin_fragmented) for a sample that must fit the stream's free history
+    /// whole (the C library's `uxr_prepare_output_stream` of a sample larger than a message): pushing its
+    /// bytes never blocks. [`Error::WouldBlock`] when the history has no room for all of it now.
+    pub fn begin_fragmented_whole(&mut self, stream: StreamId, entity: ObjectId, size: usize) -> Result<u16> {
+        self.with_request(|out, request| {
+            let request = BaseObjectRequest { request_id: RequestId(request), object_id: entity };
+            let head = RequestHead::data(SubmessageId::WriteData, request, size);
+            out.reliable_mut(stream)?.begin_chain_whole(&head.to_bytes_fragmented(), head.encoded_len())
+        })
+    }
+
     /// Appends bytes to the continuous fragmented write of `stream`; returns how many were taken (fewer when
     /// the history is full: flush, let the agent acknowledge, push the rest).
     pub fn push_fragmented(&mut self, stream: StreamId, data: &[u8]) -> Result<usize> {

@@ -442,6 +442,27 @@ impl<'a> OutputReliable<'a> {
         Ok(())
     }
 
+    /// [`begin_chain`](Self::begin_chain) for a submessage that must fit the free history whole, as
+    /// `write_parts` checks it: [`Error::WouldBlock`] when the window lacks slots now, [`Error::TooLarge`]
+    /// when the history could never hold it. Pushing its `inner_total` bytes then never blocks. Used by
+    /// `uxr_prepare_output_stream` of the C library for a sample larger than a message.
+    pub fn begin_chain_whole(&mut self, head: &[u8], inner_total: usize) -> Result<()> {
+        if self.chain.is_some() {
+            return Err(Error::Busy);
+        }
+        let (first, first_off) = self.first_fragment_place(head.len());
+        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
+        let extra = plan.count(inner_total).saturating_sub(1);
+        if extra >= usize::from(self.slots.history) {
+            return Err(Error::TooLarge);
+        }
+        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
+        if !self.window_ok(first) || !self.window_ok(last) {
+            return Err(Error::WouldBlock);
+        }
+        self.begin_chain(head, inner_total)
+    }
+
     /// Whether a fragmented submessage is being written.
     pub const fn chain_in_progress(&self) -> bool {
         self.chain.is_some()

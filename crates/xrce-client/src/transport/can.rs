@@ -126,6 +126,13 @@ impl SocketCan {
     }
 }
 
+/// The raw CAN socket, for programs that poll it (the C library's `platform.poll_fd.fd`).
+impl std::os::fd::AsRawFd for SocketCan {
+    fn as_raw_fd(&self) -> std::os::fd::RawFd {
+        std::os::fd::AsRawFd::as_raw_fd(&self.socket)
+    }
+}
+
 impl CanSocket for SocketCan {
     fn send(&mut self, frame: &Frame) -> io::Result<()> {
         self.socket.write_frame(&to_socketcan(frame)?)

@@ -95,3 +95,11 @@ impl Transport for TcpTransport {
         }
     }
 }
+
+/// The connected socket, for programs that poll it (the C library's `platform.poll_fd.fd`).
+#[cfg(unix)]
+impl std::os::fd::AsRawFd for TcpTransport {
+    fn as_raw_fd(&self) -> std::os::fd::RawFd {
+        std::os::fd::AsRawFd::as_raw_fd(&self.stream)
+    }
+}

@@ -92,3 +92,11 @@ impl Transport for UdpTransport {
         }
     }
 }
+
+/// The socket, for programs that poll it (the C library's `platform.poll_fd.fd`).
+#[cfg(unix)]
+impl std::os::fd::AsRawFd for UdpTransport {
+    fn as_raw_fd(&self) -> std::os::fd::RawFd {
+        std::os::fd::AsRawFd::as_raw_fd(&self.socket)
+    }
+}
