@@ -42,7 +42,13 @@ fn library_dir() -> PathBuf {
 
 /// The C compiler the build found for this target, at `opt_level`.
 fn c_compiler(opt_level: u32) -> cc::Tool {
+    compiler(opt_level, false)
+}
+
+/// The C (or C++) compiler the build found for this target, at `opt_level`.
+fn compiler(opt_level: u32, cpp: bool) -> cc::Tool {
     cc::Build::new()
+        .cpp(cpp)
         .target(env!("XRCE_C_TARGET"))
         .host(env!("XRCE_C_HOST"))
         .opt_level(opt_level)
@@ -51,24 +57,29 @@ fn c_compiler(opt_level: u32) -> cc::Tool {
         .get_compiler()
 }
 
-/// Compiles `tests/c/<name>.c` into an executable; `sanitize` adds ASan and UBSan.
+/// Compiles `tests/c/<name>.c` (or `<name>.cpp`, as C++20) into an executable; `sanitize` adds ASan and UBSan.
 fn compile(name: &str, sanitize: bool) -> PathBuf {
     let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let lib_dir = library_dir();
     let exe = lib_dir.join(format!("c-test-{name}{}", if sanitize { "-san" } else { "" }));
-    let mut cmd = c_compiler(1).to_command();
-    cmd.arg("-std=c11").arg("-Wall").arg("-Wextra").arg("-Werror");
+    let c_source = crate_dir.join("tests/c").join(format!("{name}.c"));
+    let (source, cpp) = if c_source.exists() {
+        (c_source, false)
+    } else {
+        (crate_dir.join("tests/c").join(format!("{name}.cpp")), true)
+    };
+    let mut cmd = compiler(1, cpp).to_command();
+    cmd.arg(if cpp { "-std=c++20" } else { "-std=c11" }).arg("-Wall").arg("-Wextra").arg("-Werror");
     if sanitize {
         cmd.args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]);
     }
-    cmd.arg(crate_dir.join("tests/c").join(format!("{name}.c")))
-        .arg("-I")
-        .arg(crate_dir.join("include"))
-        .arg("-o")
-        .arg(&exe)
-        .arg("-L")
-        .arg(&lib_dir)
-        .args(["-lmicroxrcedds_client", "-lmicrocdr", "-lpthread", "-ldl", "-lm"]);
+    cmd.arg(&source).arg("-I").arg(crate_dir.join("include")).arg("-o").arg(&exe).arg("-L").arg(&lib_dir).args([
+        "-lmicroxrcedds_client",
+        "-lmicrocdr",
+        "-lpthread",
+        "-ldl",
+        "-lm",
+    ]);
     let out = cmd.output().expect("C compiler runs");
     assert!(
         out.status.success(),
@@ -202,4 +213,89 @@ fn request_reply_with_binary_entities_and_a_reply_from_the_callback() {
 #[test]
 fn a_sample_larger_than_the_history_goes_through_continuous_fragmentation() {
     run_with_agent("big");
+}
+
+#[test]
+fn eprosimas_fields_forms_headers_and_serializers_behave_as_programs_use_them() {
+    run_with_agent("eprosima_api");
+}
+
+/// PX4's `uxrce_dds_client` is C++: the same API from a C++ program (designated initializers in eProsima's
+/// field order, the session's fields, the forms the C macros pick).
+#[test]
+fn the_api_from_cpp_as_px4_uses_it() {
+    run_with_agent("eprosima_api_cpp");
+}
+
+#[test]
+fn a_49999_byte_sample_through_prepare_output_stream_is_fragmented_over_the_stream() {
+    run_with_agent("big_prepare");
+}
+
+/// The CMake packages `microxrcedds_client` and `microcdr` (cmake/, installed by scripts/c-install.sh): a
+/// project written for eProsima's client finds them with find_package and links its targets. Lays the
+/// library out as the script installs it, configures and builds a small project, runs it. Needs `cmake`
+/// (.ci/run installs it); without it the test says so and passes.
+#[test]
+fn find_package_finds_the_installed_library_and_its_targets() {
+    if Command::new("cmake").arg("--version").output().is_err() {
+        println!("cmake not found: find_package not checked");
+        return;
+    }
+    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let lib = library_dir();
+    let prefix = lib.join("cmake-prefix");
+    let _ = std::fs::remove_dir_all(&prefix);
+    for dir in ["lib/cmake/microxrcedds_client", "lib/cmake/microcdr", "include"] {
+        std::fs::create_dir_all(prefix.join(dir)).expect("prefix directories");
+    }
+    let copy_tree = |from: &Path, to: &Path| {
+        let status = Command::new("cp").arg("-r").arg(from).arg(to).status().expect("cp runs");
+        assert!(status.success());
+    };
+    copy_tree(&crate_dir.join("include/uxr"), &prefix.join("include"));
+    copy_tree(&crate_dir.join("include/ucdr"), &prefix.join("include"));
+    std::fs::copy(lib.join("libmicroxrcedds_client.a"), prefix.join("lib/libmicroxrcedds_client.a")).expect("lib");
+    std::fs::copy(lib.join("libmicroxrcedds_client.a"), prefix.join("lib/libmicrocdr.a")).expect("lib");
+    for entry in std::fs::read_dir(crate_dir.join("cmake")).expect("cmake dir").filter_map(Result::ok) {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let package = if name.starts_with("microcdr") { "microcdr" } else { "microxrcedds_client" };
+        std::fs::copy(entry.path(), prefix.join("lib/cmake").join(package).join(&name)).expect("cmake file");
+    }
+    let project = lib.join("cmake-project");
+    let _ = std::fs::remove_dir_all(&project);
+    std::fs::create_dir_all(&project).expect("project dir");
+    std::fs::write(
+        project.join("CMakeLists.txt"),
+        "cmake_minimum_required(VERSION 3.16)\nproject(uses_the_client C)\n\
+         find_package(microcdr REQUIRED)\nfind_package(microxrcedds_client 2.4 REQUIRED)\n\
+         add_executable(uses main.c)\ntarget_link_libraries(uses microxrcedds_client microcdr)\n",
+    )
+    .expect("CMakeLists.txt");
+    std::fs::write(
+        project.join("main.c"),
+        "#include <uxr/client/client.h>\n#include <stdio.h>\nint main(void) {\n\
+         uint8_t b[8]; ucdrBuffer ub; ucdr_init_buffer(&ub, b, sizeof b);\n\
+         return ucdr_serialize_uint32_t(&ub, 7) && uxr_millis() > 0 && UXR_CLIENT_VERSION_MAJOR == 3 ? 0 : 1; }\n",
+    )
+    .expect("main.c");
+    let build = project.join("build");
+    let configure = Command::new("cmake")
+        .arg("-S")
+        .arg(&project)
+        .arg("-B")
+        .arg(&build)
+        .arg(format!("-DCMAKE_PREFIX_PATH={}", prefix.display()))
+        .output()
+        .expect("cmake runs");
+    assert!(configure.status.success(), "configure:\n{}", String::from_utf8_lossy(&configure.stderr));
+    let built = Command::new("cmake").arg("--build").arg(&build).output().expect("cmake --build runs");
+    assert!(
+        built.status.success(),
+        "build:\n{}{}",
+        String::from_utf8_lossy(&built.stdout),
+        String::from_utf8_lossy(&built.stderr)
+    );
+    let ran = Command::new(build.join("uses")).status().expect("program runs");
+    assert!(ran.success(), "the program built with find_package failed");
 }

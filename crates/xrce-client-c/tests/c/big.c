@@ -1,7 +1,8 @@
-/* Continuous fragmentation: a 20,000-byte sample written through uxr_prepare_output_stream_fragmented into a
- * reliable history of 4 x 512 B, the flush callback running the session whenever the history is full; the
- * subscriber receives it whole. Entities by XML. Usage: big IP PORT [SETTLE_MS] (the last one ignored: the
- * reliable reader gets the sample whenever it matched). */
+/* Continuous fragmentation: two 20,000-byte samples written through uxr_prepare_output_stream_fragmented into
+ * a reliable history of 4 x 512 B, the flush callback running the session whenever the history is full: the
+ * first in eProsima's form (7 arguments, the callback gets its argument), the second in the seed's (6, a
+ * one-argument callback); the subscriber receives both whole. Entities by XML. Usage: big IP PORT [SETTLE_MS]
+ * (the last one ignored: the reliable reader gets the sample whenever it matched). */
 #include "node.h"
 
 #include <stdlib.h>
@@ -16,6 +17,7 @@ static uint8_t subscriber_input[INPUT_SIZE];
 static uint8_t payload[PAYLOAD];
 static uint8_t received[PAYLOAD];
 static uint32_t received_len = 0;
+static int received_count = 0;
 static int flushes = 0;
 
 static void on_topic(uxrSession* session, uxrObjectId object_id, uint16_t request_id, uxrStreamId stream_id,
@@ -24,14 +26,32 @@ static void on_topic(uxrSession* session, uxrObjectId object_id, uint16_t reques
     uint32_t len = 0;
     if (ucdr_deserialize_sequence_uint8_t(ub, received, sizeof(received), &len)) {
         received_len = len;
+        received_count++;
     }
 }
 
-static bool flush(uxrSession* session) {
-    flushes++;
+/* eProsima's flush callback: `args` is what the write was given. */
+static bool flush(uxrSession* session, void* args) {
+    (*(int*)args)++;
     bool confirmed = uxr_run_session_until_confirm_delivery(session, 1000);
     uxr_run_session_time(&subscriber.session, 1);
     return confirmed;
+}
+
+/* The seed's flush callback. */
+static int seed_flushes = 0;
+static bool flush_seed(uxrSession* session) {
+    seed_flushes++;
+    return flush(session, &flushes);
+}
+
+/* Waits for sample number `count` at the subscriber; whether it is the payload, intact. */
+static bool received_intact(int count) {
+    for (int round = 0; round < 200 && received_count < count; round++) {
+        uxr_run_session_time(&subscriber.session, 10);
+        uxr_run_session_time(&publisher.session, 1);
+    }
+    return received_count == count && received_len == PAYLOAD && memcmp(payload, received, PAYLOAD) == 0;
 }
 
 static const char* participant_xml =
@@ -94,7 +114,8 @@ int main(int argc, char** argv) {
     ucdrBuffer ub;
     uint32_t size = 4 + PAYLOAD;
     uint16_t request = uxr_prepare_output_stream_fragmented(&publisher.session, publisher.out,
-                                                            uxr_object_id(1, UXR_DATAWRITER_ID), &ub, size, flush);
+                                                            uxr_object_id(1, UXR_DATAWRITER_ID), &ub, size, flush,
+                                                            &flushes);
     if (request == UXR_INVALID_REQUEST_ID || !ucdr_serialize_sequence_uint8_t(&ub, payload, PAYLOAD) || ub.error) {
         fprintf(stderr, "fragmented write failed\n");
         return 1;
@@ -103,18 +124,26 @@ int main(int argc, char** argv) {
     ucdrBuffer other;
     if (uxr_prepare_output_stream_fragmented(&publisher.session, uxr_stream_id(0, UXR_BEST_EFFORT_STREAM,
                                              UXR_OUTPUT_STREAM), uxr_object_id(1, UXR_DATAWRITER_ID),
-                                             &other, 8, flush) != UXR_INVALID_REQUEST_ID) {
+                                             &other, 8, flush, &flushes) != UXR_INVALID_REQUEST_ID) {
         return 1;
     }
     bool confirmed = uxr_run_session_until_confirm_delivery(&publisher.session, 3000);
-    for (int round = 0; round < 200 && received_len == 0; round++) {
-        uxr_run_session_time(&subscriber.session, 10);
-        uxr_run_session_time(&publisher.session, 1);
+    bool first = received_intact(1);
+    int first_flushes = flushes;
+
+    /* the seed's form: six arguments, a one-argument callback */
+    request = uxr_prepare_output_stream_fragmented(&publisher.session, publisher.out,
+                                                   uxr_object_id(1, UXR_DATAWRITER_ID), &ub, size, flush_seed);
+    if (request == UXR_INVALID_REQUEST_ID || !ucdr_serialize_sequence_uint8_t(&ub, payload, PAYLOAD) || ub.error) {
+        fprintf(stderr, "fragmented write (seed form) failed\n");
+        return 1;
     }
-    bool same = received_len == PAYLOAD && memcmp(payload, received, PAYLOAD) == 0;
-    printf("sample of %u bytes received %s after %d flushes, delivery %s\n", received_len,
-           same ? "intact" : "DIFFERENT", flushes, confirmed ? "confirmed" : "NOT confirmed");
+    confirmed = uxr_run_session_until_confirm_delivery(&publisher.session, 3000) && confirmed;
+    bool second = received_intact(2);
+    printf("7 arguments: sample of %u bytes %s after %d flushes; 6 arguments: %s after %d flushes; delivery %s\n",
+           PAYLOAD, first ? "intact" : "NOT received intact", first_flushes,
+           second ? "intact" : "NOT received intact", seed_flushes, confirmed ? "confirmed" : "NOT confirmed");
     node_stop(&publisher);
     node_stop(&subscriber);
-    return same && confirmed && flushes > 0 ? 0 : 1;
+    return first && second && confirmed && first_flushes > 0 && seed_flushes > 0 ? 0 : 1;
 }

@@ -397,6 +397,9 @@ impl<C: Callbacks + ?Sized> Callbacks for Tracker<'_, C> {
     fn on_time(&mut self, sample: &TimeSample) -> bool {
         self.inner.on_time(sample)
     }
+    fn on_pong(&mut self, in_session: bool) {
+        self.inner.on_pong(in_session);
+    }
     fn on_request_status(&mut self, request_id: u16, status: u8) {
         for (r, s) in self.requests.iter().zip(self.statuses.iter_mut()) {
             if *r == request_id {

@@ -55,8 +55,4 @@ UXR_ABI(SampleIdentity, 24, 4)
 UXR_ABI(uxrSessionInfo, 8, 2)
 UXR_ABI(Time_t, 8, 4)
 
-#ifdef __cplusplus
-}
-#endif
-
 #endif /* UXR_CLIENT_CLIENT_H_ */

@@ -1,0 +1,10 @@
+# The Micro-CDR release whose API the functions provide (ucdr/config.h): 2.0.1; 1.x and 2.x requests match.
+set(PACKAGE_VERSION "2.0.1")
+if(PACKAGE_FIND_VERSION_MAJOR AND PACKAGE_FIND_VERSION_MAJOR GREATER 2)
+    set(PACKAGE_VERSION_COMPATIBLE FALSE)
+else()
+    set(PACKAGE_VERSION_COMPATIBLE TRUE)
+    if(PACKAGE_FIND_VERSION STREQUAL PACKAGE_VERSION)
+        set(PACKAGE_VERSION_EXACT TRUE)
+    endif()
+endif()
