@@ -71,7 +71,7 @@ impl Transport for Comm {
         let dst = buf.get_mut(..len).ok_or(TransportError::MessageTooLarge)?;
         // SAFETY: the transport promises `len` readable bytes at `at` until its next call.
         let src = unsafe { core::slice::from_raw_parts(at.cast_const(), len) };
-        dst.copy_from_slice(src);
+        xrce_proto::bytes::copy(dst, src);
         Ok(Some(len))
     }
 }

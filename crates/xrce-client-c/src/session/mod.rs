@@ -121,6 +121,7 @@ pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnO
 ///
 /// # Safety
 /// `session` an initialised `uxrSession` whose Rust session is `inner`.
+#[inline(never)] // one copy for every `with_session` instance (firmware size)
 unsafe fn publish(session: *mut uxrSession, inner: &mut Inner) {
     let core = inner.core();
     let (id, key, last) = (core.session_id(), core.client_key(), core.last_request_id());
