@@ -15,18 +15,19 @@ pub mod clock;
 pub mod comm;
 pub mod entities;
 pub mod layout;
+pub mod platform;
 pub mod session;
 pub mod transport;
 pub mod types;
 pub mod ucdr;
 
-/// Without `std` (firmware), a panic stops the program; none is expected on any input.
+/// Without `std` (firmware), a panic calls the program's hook (`uxr_set_panic_hook`) and halts: no `abort`,
+/// which newlib implements with signals and `malloc`. None is expected on any input.
 #[cfg(all(not(feature = "std"), not(test)))]
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
-    extern "C" {
-        fn abort() -> !;
+    platform::call_panic_hook();
+    loop {
+        core::hint::spin_loop();
     }
-    // SAFETY: the C library's abort takes no argument and never returns.
-    unsafe { abort() }
 }

@@ -25,6 +25,7 @@
 #include <uxr/client/transport.h>
 #include <uxr/client/util/ping.h>
 #include <uxr/client/util/time.h>
+#include <uxr/client/platform.h>
 #ifdef UCLIENT_PROFILE_UDP
 #include <uxr/client/profile/transport/ip/ip.h>
 #endif
