@@ -55,8 +55,7 @@
 #include "check.h"
 
 #if !defined(UCLIENT_PROFILE_UDP) || !defined(UCLIENT_PROFILE_CUSTOM_TRANSPORT) || \
-    UXR_CONFIG_UDP_TRANSPORT_MTU != 512 || UXR_CLIENT_VERSION_MAJOR != 3 || MICROCDR_VERSION_MAJOR != 2 || \
-    defined(UCLIENT_PROFILE_MULTITHREAD)
+    UXR_CONFIG_UDP_TRANSPORT_MTU != 512 || UXR_CLIENT_VERSION_MAJOR != 3 || MICROCDR_VERSION_MAJOR != 2
 #error "config.h does not describe this build"
 #endif
 
