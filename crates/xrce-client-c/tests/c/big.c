@@ -54,27 +54,8 @@ static bool received_intact(int count) {
     return received_count == count && received_len == PAYLOAD && memcmp(payload, received, PAYLOAD) == 0;
 }
 
-static const char* participant_xml =
-    "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
-static const char* topic_xml = "<dds><topic><name>BigTopic</name><dataType>Big</dataType></topic></dds>";
-static const char* writer_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>BigTopic</name>"
-                                "<dataType>Big</dataType></topic></data_writer></dds>";
-static const char* reader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>BigTopic</name>"
-                                "<dataType>Big</dataType></topic></data_reader></dds>";
-
 static bool create(Node* node, bool writer) {
-    uxrObjectId participant = uxr_object_id(1, UXR_PARTICIPANT_ID);
-    uxrObjectId topic = uxr_object_id(1, UXR_TOPIC_ID);
-    uxrObjectId parent = uxr_object_id(1, writer ? UXR_PUBLISHER_ID : UXR_SUBSCRIBER_ID);
-    uxrObjectId endpoint = uxr_object_id(1, writer ? UXR_DATAWRITER_ID : UXR_DATAREADER_ID);
-    uint16_t r[4];
-    r[0] = uxr_buffer_create_participant_xml(&node->session, node->out, participant, 0, participant_xml, UXR_REPLACE);
-    r[1] = uxr_buffer_create_topic_xml(&node->session, node->out, topic, participant, topic_xml, UXR_REPLACE);
-    r[2] = writer ? uxr_buffer_create_publisher_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE)
-                  : uxr_buffer_create_subscriber_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE);
-    r[3] = writer ? uxr_buffer_create_datawriter_xml(&node->session, node->out, endpoint, parent, writer_xml, UXR_REPLACE)
-                  : uxr_buffer_create_datareader_xml(&node->session, node->out, endpoint, parent, reader_xml, UXR_REPLACE);
-    return node_statuses_ok(node, r, 4, writer ? "writer" : "reader");
+    return node_create_endpoint(node, writer, "BigTopic", "Big");
 }
 
 int main(int argc, char** argv) {
