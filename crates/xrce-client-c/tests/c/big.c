@@ -83,14 +83,7 @@ int main(int argc, char** argv) {
     if (!create(&subscriber, false) || !create(&publisher, true)) {
         return 1;
     }
-    uxrDeliveryControl control = {UXR_MAX_SAMPLES_UNLIMITED, 0, 0, 0};
-    uxr_buffer_request_data(&subscriber.session, subscriber.out, uxr_object_id(1, UXR_DATAREADER_ID), subscriber.in, &control);
-    uxr_run_session_until_confirm_delivery(&subscriber.session, 1000);
-    /* an agent on DDS matches its writer and reader first (SETTLE_MS) */
-    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
-        uxr_run_session_time(&subscriber.session, 5);
-        uxr_run_session_time(&publisher.session, 5);
-    }
+    node_read_all_then_settle(&subscriber, &publisher, argc, argv);
 
     ucdrBuffer ub;
     uint32_t size = 4 + PAYLOAD;

@@ -6,6 +6,7 @@
 #include <uxr/client/client.h>
 
 #include <stdio.h>
+#include <stdlib.h>
 
 #define NODE_HISTORY 8
 #define NODE_BUFFER (UXR_CONFIG_UDP_TRANSPORT_MTU * NODE_HISTORY)
@@ -79,6 +80,19 @@ static inline bool node_create_endpoint(Node* node, bool writer, const char* top
     r[3] = writer ? uxr_buffer_create_datawriter_xml(&node->session, node->out, endpoint, parent, endpoint_xml, UXR_REPLACE)
                   : uxr_buffer_create_datareader_xml(&node->session, node->out, endpoint, parent, endpoint_xml, UXR_REPLACE);
     return node_statuses_ok(node, r, 4, writer ? "writer" : "reader");
+}
+
+/* The subscriber asks its reader (id 1) for every sample on its input stream; both nodes then run for the
+ * agent's settle time (argv[3] in ms, if given: an agent on DDS matches its writer and reader first). */
+static inline void node_read_all_then_settle(Node* subscriber, Node* publisher, int argc, char** argv) {
+    uxrDeliveryControl control = {UXR_MAX_SAMPLES_UNLIMITED, 0, 0, 0};
+    uxr_buffer_request_data(&subscriber->session, subscriber->out, uxr_object_id(1, UXR_DATAREADER_ID), subscriber->in,
+                            &control);
+    uxr_run_session_until_confirm_delivery(&subscriber->session, 1000);
+    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
+        uxr_run_session_time(&subscriber->session, 5);
+        uxr_run_session_time(&publisher->session, 5);
+    }
 }
 
 static inline void node_stop(Node* node) {
