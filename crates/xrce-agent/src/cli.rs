@@ -518,6 +518,11 @@ struct PseudoTerminalArgs {
     #[arg(short = 'b', long, value_name = "BAUD", default_value_t = DEFAULT_BAUDRATE)]
     baudrate: u32,
 
+    /// Accepted and ignored, as by eProsima's agent (which ignores arguments it does not know): the agent
+    /// creates its pseudoterminal and prints its path. Scripts that pass the serial subcommands' -D keep working.
+    #[arg(short = 'D', long = "dev", value_name = "DEVICE", hide = true)]
+    dev: Option<String>,
+
     #[command(flatten)]
     common: CommonArgs,
 }
@@ -621,7 +626,12 @@ impl TransportCommand {
                 flow_control = a.flow_control;
                 (Transport::MultiSerial { devices, baudrate: a.baudrate }, a.common)
             }
-            TransportCommand::Pseudoterminal(a) => (Transport::PseudoTerminal { baudrate: a.baudrate }, a.common),
+            TransportCommand::Pseudoterminal(a) => {
+                if let Some(dev) = &a.dev {
+                    tracing::warn!(device = %dev, "pseudoterminal: -D is ignored (the agent creates its own device)");
+                }
+                (Transport::PseudoTerminal { baudrate: a.baudrate }, a.common)
+            }
             TransportCommand::Canfd(a) => (Transport::CanFd { device: a.dev, can_id: a.id }, a.common),
         };
         let psk = common.psk_file.as_deref().map(read_psk_file).transpose()?;
@@ -988,7 +998,9 @@ mod tests {
     fn pseudoterminal_baudrate_only() {
         assert_eq!(ok("pseudoterminal").transport, Transport::PseudoTerminal { baudrate: 115_200 });
         assert_eq!(ok("pseudoterminal -b 57600 -v5").transport, Transport::PseudoTerminal { baudrate: 57_600 });
-        assert_eq!(rejected("pseudoterminal -D /dev/x"), ErrorKind::UnknownArgument);
+        // eProsima's agent ignores arguments it does not know; scripts pass the serial subcommands' -D.
+        assert_eq!(ok("pseudoterminal -D /dev/x").transport, Transport::PseudoTerminal { baudrate: 115_200 });
+        assert_eq!(rejected("pseudoterminal --devs /dev/x"), ErrorKind::UnknownArgument);
     }
 
     #[test]
