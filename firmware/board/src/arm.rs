@@ -1,0 +1,163 @@
+//! QEMU's mps2-an386 (Cortex-M4) and mps2-an385 (Cortex-M3, runs thumbv6m code): CMSDK APB UART0, SysTick,
+//! ARM semihosting.
+
+use core::arch::asm;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::{exception, ExceptionFrame};
+
+/// CMSDK APB UART0.
+const UART0: usize = 0x4000_4000;
+const UART_DATA: *mut u32 = UART0 as *mut u32;
+const UART_STATE: *mut u32 = (UART0 + 0x4) as *mut u32;
+const UART_CTRL: *mut u32 = (UART0 + 0x8) as *mut u32;
+const UART_BAUDDIV: *mut u32 = (UART0 + 0x10) as *mut u32;
+const STATE_TX_FULL: u32 = 1;
+const STATE_RX_FULL: u32 = 2;
+const CTRL_TX_EN: u32 = 1;
+const CTRL_RX_EN: u32 = 2;
+
+/// The core clock of the mps2 boards (SysTick counts it).
+const CORE_HZ: u32 = 25_000_000;
+/// One SysTick period: 1 ms.
+const RELOAD: u32 = CORE_HZ / 1000 - 1;
+/// Nanoseconds per core cycle.
+const NS_PER_CYCLE: i64 = 1_000_000_000 / CORE_HZ as i64;
+
+/// Milliseconds since reset, counted by the SysTick exception.
+static TICKS: AtomicU32 = AtomicU32::new(0);
+
+pub fn init() {
+    // SAFETY: the UART's registers, at the address the board maps them; no other code touches them.
+    unsafe {
+        UART_BAUDDIV.write_volatile(16);
+        UART_CTRL.write_volatile(CTRL_TX_EN | CTRL_RX_EN);
+    }
+    // SAFETY: the one place that configures SysTick, before anything reads it.
+    let mut syst = unsafe { cortex_m::Peripherals::steal() }.SYST;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(RELOAD);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+}
+
+#[exception]
+fn SysTick() {
+    // The only writer (load and store: thumbv6m has no read-modify-write atomics).
+    TICKS.store(TICKS.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+}
+
+pub fn now_nanos() -> i64 {
+    loop {
+        let before = TICKS.load(Ordering::Relaxed);
+        let cycles = RELOAD - SYST::get_current().min(RELOAD);
+        if TICKS.load(Ordering::Relaxed) == before {
+            return i64::from(before) * 1_000_000 + i64::from(cycles) * NS_PER_CYCLE;
+        }
+    }
+}
+
+/// Sleeps until the next interrupt (the next millisecond at the latest).
+pub fn idle() {
+    cortex_m::asm::wfi();
+}
+
+pub fn uart_write(b: u8) {
+    // SAFETY: the UART's registers (see `init`).
+    unsafe {
+        while UART_STATE.read_volatile() & STATE_TX_FULL != 0 {}
+        UART_DATA.write_volatile(u32::from(b));
+    }
+}
+
+pub fn uart_read() -> Option<u8> {
+    // SAFETY: the UART's registers (see `init`).
+    unsafe { (UART_STATE.read_volatile() & STATE_RX_FULL != 0).then(|| UART_DATA.read_volatile() as u8) }
+}
+
+// ---- semihosting --------------------------------------------------------------------------------------------
+
+const SYS_OPEN: usize = 0x01;
+const SYS_WRITE: usize = 0x05;
+const SYS_GET_CMDLINE: usize = 0x15;
+const SYS_EXIT_EXTENDED: usize = 0x20;
+const ADP_STOPPED_APPLICATION_EXIT: usize = 0x2_0026;
+
+/// One semihosting call: operation `op`, its parameter block (or value) `arg`.
+///
+/// # Safety
+/// `arg` must be what `op` expects: the address of a parameter block valid for the call, or a value.
+unsafe fn semihost(op: usize, arg: usize) -> usize {
+    let mut r0 = op;
+    // SAFETY: `bkpt 0xab` is the semihosting trap, served by QEMU (`-semihosting-config enable=on`); the
+    // caller vouches for `arg`.
+    unsafe { asm!("bkpt #0xab", inout("r0") r0, in("r1") arg, options(nostack)) };
+    r0
+}
+
+/// The host's console, opened once (`:tt` for writing).
+static CONSOLE: AtomicU32 = AtomicU32::new(u32::MAX);
+
+pub fn print(bytes: &[u8]) {
+    let mut handle = CONSOLE.load(Ordering::Relaxed);
+    if handle == u32::MAX {
+        let block = [b":tt\0".as_ptr() as usize, 4, 3];
+        // SAFETY: SYS_OPEN's block: name, mode ("w"), name length; all live for the call.
+        handle = unsafe { semihost(SYS_OPEN, block.as_ptr() as usize) } as u32;
+        CONSOLE.store(handle, Ordering::Relaxed);
+    }
+    let block = [handle as usize, bytes.as_ptr() as usize, bytes.len()];
+    // SAFETY: SYS_WRITE's block: handle, address and length of a live slice.
+    unsafe { semihost(SYS_WRITE, block.as_ptr() as usize) };
+}
+
+pub fn exit(code: i32) -> ! {
+    let block = [ADP_STOPPED_APPLICATION_EXIT, code as usize];
+    // SAFETY: SYS_EXIT_EXTENDED's block: reason, exit code.
+    unsafe { semihost(SYS_EXIT_EXTENDED, block.as_ptr() as usize) };
+    // Without semihosting the call does not come back: halt.
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+pub fn cmdline(buf: &mut [u8]) -> usize {
+    let mut block = [buf.as_mut_ptr() as usize, buf.len()];
+    // SAFETY: SYS_GET_CMDLINE's block: a writable buffer and its length, which the host updates.
+    let failed = unsafe { semihost(SYS_GET_CMDLINE, block.as_mut_ptr() as usize) } != 0;
+    if failed {
+        return 0;
+    }
+    // The host wrote `len` bytes and a NUL.
+    block[1].min(buf.len())
+}
+
+// ---- stack ----------------------------------------------------------------------------------------------------
+
+extern "C" {
+    static _stack_start: u32;
+    static _stack_end: u32;
+}
+
+/// Bytes of stack used since reset: cortex-m-rt's `paint-stack` filled `_stack_end.._stack_start` with
+/// 0xCCCCCCCC; the lowest word no longer holding it is the high-water mark.
+pub fn stack_used() -> usize {
+    let (end, start) = (core::ptr::addr_of!(_stack_end) as usize, core::ptr::addr_of!(_stack_start) as usize);
+    let mut a = end;
+    // SAFETY: word-aligned addresses inside the stack region the linker script placed in RAM.
+    while a < start && unsafe { (a as *const u32).read_volatile() } == 0xCCCC_CCCC {
+        a += 4;
+    }
+    start - a
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    crate::print(b"hard fault at pc ");
+    crate::print_num(u64::from(frame.pc()));
+    crate::print(b"\n");
+    exit(102)
+}
