@@ -104,7 +104,7 @@ static CONSOLE: AtomicU32 = AtomicU32::new(u32::MAX);
 pub fn print(bytes: &[u8]) {
     let mut handle = CONSOLE.load(Ordering::Relaxed);
     if handle == u32::MAX {
-        let block = [b":tt\0".as_ptr() as usize, 4, 3];
+        let block = [c":tt".as_ptr() as usize, 4, 3];
         // SAFETY: SYS_OPEN's block: name, mode ("w"), name length; all live for the call.
         handle = unsafe { semihost(SYS_OPEN, block.as_ptr() as usize) } as u32;
         CONSOLE.store(handle, Ordering::Relaxed);

@@ -146,7 +146,7 @@ extern "C" fn main() -> ! {
     board::print(b"ready\n");
 
     let deadline = board::now_millis() + timeout_ms;
-    while session.callbacks().last.map_or(true, |last| last + 1 < count) && board::now_millis() < deadline {
+    while session.callbacks().last.is_none_or(|last| last.saturating_add(1) < count) && board::now_millis() < deadline {
         if session.callbacks().liveness.recreate {
             session.callbacks().liveness.recreate = false;
             if !subscribe(session, out, data_stream, topic_name, qos) {
@@ -165,7 +165,7 @@ extern "C" fn main() -> ! {
     board::report(b"sessions lost: ", u64::from(t.liveness.lost));
     board::report(b"sessions restored: ", u64::from(t.liveness.restored));
     let ok = if best_effort {
-        t.repeated == 0 && t.received * 2 >= count
+        t.repeated == 0 && t.received.saturating_mul(2) >= count
     } else {
         // Duplicates may follow a re-creation (the publisher sends again what the old agent had not
         // acknowledged); with no session lost, there must be none.
