@@ -1,0 +1,157 @@
+/* Board support for the C firmware (board.h): QEMU's mps2-an386. */
+#include "board.h"
+
+#include <time.h>
+
+#define UART0_BASE 0x40004000u
+#define UART_DATA (*(volatile uint32_t*)(UART0_BASE + 0x0u))
+#define UART_STATE (*(volatile uint32_t*)(UART0_BASE + 0x4u))
+#define UART_CTRL (*(volatile uint32_t*)(UART0_BASE + 0x8u))
+#define UART_BAUDDIV (*(volatile uint32_t*)(UART0_BASE + 0x10u))
+#define STATE_TX_FULL 1u
+#define STATE_RX_FULL 2u
+
+#define SYST_CSR (*(volatile uint32_t*)0xE000E010u)
+#define SYST_RVR (*(volatile uint32_t*)0xE000E014u)
+#define SYST_CVR (*(volatile uint32_t*)0xE000E018u)
+#define CORE_HZ 25000000u
+#define RELOAD (CORE_HZ / 1000u - 1u)
+#define NS_PER_CYCLE (1000000000u / CORE_HZ)
+
+static volatile uint32_t ticks;
+
+void SysTick_Handler(void) {
+    ticks++;
+}
+
+void board_init(void) {
+    UART_BAUDDIV = 16;
+    UART_CTRL = 3; /* TX and RX enabled */
+    SYST_RVR = RELOAD;
+    SYST_CVR = 0;
+    SYST_CSR = 7; /* core clock, interrupt, enabled */
+}
+
+void uart_write(uint8_t byte) {
+    while (UART_STATE & STATE_TX_FULL) {
+    }
+    UART_DATA = byte;
+}
+
+bool uart_read(uint8_t* byte) {
+    if (!(UART_STATE & STATE_RX_FULL)) {
+        return false;
+    }
+    *byte = (uint8_t)UART_DATA;
+    return true;
+}
+
+int64_t board_nanos(void) {
+    for (;;) {
+        uint32_t before = ticks;
+        uint32_t current = SYST_CVR;
+        if (ticks == before) {
+            uint32_t cycles = RELOAD - (current > RELOAD ? RELOAD : current);
+            return (int64_t)before * 1000000 + (int64_t)cycles * NS_PER_CYCLE;
+        }
+    }
+}
+
+int64_t board_millis(void) {
+    return board_nanos() / 1000000;
+}
+
+/* The platform's clock, as eProsima's client reads it on bare metal (and our library without a time source set
+ * by uxr_set_time_source): CLOCK_REALTIME counts from reset here; time synchronisation gives the agent's. */
+int clock_gettime(clockid_t clock, struct timespec* ts) {
+    (void)clock;
+    int64_t ns = board_nanos();
+    ts->tv_sec = (time_t)(ns / 1000000000);
+    ts->tv_nsec = (long)(ns % 1000000000);
+    return 0;
+}
+
+void board_idle(void) {
+    __asm volatile("wfi");
+}
+
+/* ---- semihosting ---- */
+
+static uint32_t semihost(uint32_t op, const void* arg) {
+    register uint32_t r0 __asm("r0") = op;
+    register const void* r1 __asm("r1") = arg;
+    __asm volatile("bkpt #0xab" : "+r"(r0) : "r"(r1) : "memory");
+    return r0;
+}
+
+static uint32_t console = 0xFFFFFFFFu;
+
+static size_t length(const char* s) {
+    size_t n = 0;
+    while (s[n] != '\0') {
+        n++;
+    }
+    return n;
+}
+
+void board_print(const char* text) {
+    if (console == 0xFFFFFFFFu) {
+        uint32_t open[3] = {(uint32_t)":tt", 4 /* "w" */, 3};
+        console = semihost(0x01 /* SYS_OPEN */, open);
+    }
+    uint32_t write[3] = {console, (uint32_t)text, (uint32_t)length(text)};
+    semihost(0x05 /* SYS_WRITE */, write);
+}
+
+void board_print_num(uint32_t n) {
+    char buf[11];
+    int i = 10;
+    buf[i] = '\0';
+    do {
+        buf[--i] = (char)('0' + n % 10);
+        n /= 10;
+    } while (n != 0 && i > 0);
+    board_print(&buf[i]);
+}
+
+void board_report(const char* label, uint32_t n) {
+    board_print(label);
+    board_print_num(n);
+    board_print("\n");
+}
+
+void board_exit(int code) {
+    uint32_t block[2] = {0x20026 /* ADP_Stopped_ApplicationExit */, (uint32_t)code};
+    semihost(0x20 /* SYS_EXIT_EXTENDED */, block);
+    for (;;) {
+        board_idle();
+    }
+}
+
+const char* board_cmdline(char* buf, size_t size) {
+    uint32_t block[2] = {(uint32_t)buf, (uint32_t)size};
+    if (size == 0 || semihost(0x15 /* SYS_GET_CMDLINE */, block) != 0) {
+        return "";
+    }
+    buf[size - 1] = '\0';
+    /* "<kernel file> <-append text>": skip the file name. */
+    for (char* p = buf; *p != '\0'; p++) {
+        if (*p == ' ') {
+            return p + 1;
+        }
+    }
+    return "";
+}
+
+/* ---- stack ---- */
+
+extern uint32_t __stack_limit;
+extern uint32_t __stack_top;
+
+size_t board_stack_used(void) {
+    const uint32_t* p = &__stack_limit;
+    while (p < &__stack_top && *p == 0xCCCCCCCCu) {
+        p++;
+    }
+    return (size_t)((uintptr_t)&__stack_top - (uintptr_t)p);
+}
