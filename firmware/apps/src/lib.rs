@@ -76,6 +76,24 @@ pub fn create_session<C: xrce_client::Callbacks, const OBE: usize, const IBE: us
     }
 }
 
+/// Runs `request` (a `buffer_*` call), running the session while the reliable history is full (after a
+/// re-creation it may still hold what was sent before), up to 5 s; its request id, or `None`.
+pub fn buffer<C: xrce_client::Callbacks, const OBE: usize, const IBE: usize>(
+    session: &mut Client<C, OBE, IBE>,
+    mut request: impl FnMut(&mut Client<C, OBE, IBE>) -> Result<u16, Error>,
+) -> Option<u16> {
+    for _ in 0..500 {
+        match request(session) {
+            Ok(id) => return Some(id),
+            Err(Error::WouldBlock) => {
+                let _ = session.run_session_timeout(10);
+            }
+            Err(_) => return None,
+        }
+    }
+    None
+}
+
 /// Waits for the statuses of `requests` (one second, at most `tries` times); whether all were OK.
 pub fn created<C: xrce_client::Callbacks, const OBE: usize, const IBE: usize>(
     session: &mut Client<C, OBE, IBE>,

@@ -47,38 +47,38 @@ fn create_entities(session: &mut Publisher, out: StreamId, mode: u8) -> bool {
     let publisher = object_id(1, ObjectKind::Publisher);
     let writer = object_id(1, ObjectKind::DataWriter);
     let requests = [
-        session.buffer_create_participant_xml(
-            out,
-            participant,
-            0,
-            "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>",
-            mode,
-        ),
-        session.buffer_create_topic_xml(
-            out,
-            topic,
-            participant,
-            "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>",
-            mode,
-        ),
-        session.buffer_create_publisher_xml(out, publisher, participant, "", mode),
-        session.buffer_create_datawriter_xml(
-            out,
-            writer,
-            publisher,
-            "<dds><data_writer><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
-             <dataType>HelloWorld</dataType></topic></data_writer></dds>",
-            mode,
-        ),
+        fw::buffer(session, |s| {
+            s.buffer_create_participant_xml(
+                out,
+                participant,
+                0,
+                "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>",
+                mode,
+            )
+        }),
+        fw::buffer(session, |s| {
+            s.buffer_create_topic_xml(
+                out,
+                topic,
+                participant,
+                "<dds><topic><name>HelloWorldTopic</name><dataType>HelloWorld</dataType></topic></dds>",
+                mode,
+            )
+        }),
+        fw::buffer(session, |s| s.buffer_create_publisher_xml(out, publisher, participant, "", mode)),
+        fw::buffer(session, |s| {
+            s.buffer_create_datawriter_xml(
+                out,
+                writer,
+                publisher,
+                "<dds><data_writer><topic><kind>NO_KEY</kind><name>HelloWorldTopic</name>\
+                 <dataType>HelloWorld</dataType></topic></data_writer></dds>",
+                mode,
+            )
+        }),
     ];
-    let mut ids = [0u16; 4];
-    for (id, r) in ids.iter_mut().zip(requests) {
-        match r {
-            Ok(r) => *id = r,
-            Err(_) => return false,
-        }
-    }
-    fw::created(session, &ids, 5)
+    let [Some(a), Some(b), Some(c), Some(d)] = requests else { return false };
+    fw::created(session, &[a, b, c, d], 5)
 }
 
 /// Writes sample `index` on `stream`: `Ok(false)` when the history is full (run the session and retry).

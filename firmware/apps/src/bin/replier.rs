@@ -70,15 +70,15 @@ fn create(session: &mut Replier, out: StreamId, input: StreamId, mode: u8) -> bo
     let participant = object_id(1, ObjectKind::Participant);
     let replier = object_id(1, ObjectKind::Replier);
     let requests = [
-        session.buffer_create_participant_bin(out, participant, 0, Some("firmware_replier"), mode),
-        session.buffer_create_replier_bin(out, replier, participant, &SERVICE, QoS::default(), mode),
+        fw::buffer(session, |s| s.buffer_create_participant_bin(out, participant, 0, Some("firmware_replier"), mode)),
+        fw::buffer(session, |s| s.buffer_create_replier_bin(out, replier, participant, &SERVICE, QoS::default(), mode)),
     ];
-    let (Ok(a), Ok(b)) = (requests[0], requests[1]) else { return false };
+    let [Some(a), Some(b)] = requests else { return false };
     if !fw::created(session, &[a, b], 5) {
         return false;
     }
     let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
-    session.buffer_request_data(out, replier, input, Some(&control)).is_ok()
+    fw::buffer(session, |s| s.buffer_request_data(out, replier, input, Some(&control))).is_some()
 }
 
 #[export_name = "main"]

@@ -66,15 +66,17 @@ fn create(session: &mut Requester, out: StreamId, input: StreamId, mode: u8) -> 
     let participant = object_id(1, ObjectKind::Participant);
     let requester = object_id(1, ObjectKind::Requester);
     let requests = [
-        session.buffer_create_participant_bin(out, participant, 0, Some("firmware_requester"), mode),
-        session.buffer_create_requester_bin(out, requester, participant, &SERVICE, QoS::default(), mode),
+        fw::buffer(session, |s| s.buffer_create_participant_bin(out, participant, 0, Some("firmware_requester"), mode)),
+        fw::buffer(session, |s| {
+            s.buffer_create_requester_bin(out, requester, participant, &SERVICE, QoS::default(), mode)
+        }),
     ];
-    let (Ok(a), Ok(b)) = (requests[0], requests[1]) else { return false };
+    let [Some(a), Some(b)] = requests else { return false };
     if !fw::created(session, &[a, b], 5) {
         return false;
     }
     let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
-    session.buffer_request_data(out, requester, input, Some(&control)).is_ok()
+    fw::buffer(session, |s| s.buffer_request_data(out, requester, input, Some(&control))).is_some()
 }
 
 #[export_name = "main"]

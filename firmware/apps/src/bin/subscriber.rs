@@ -89,23 +89,19 @@ fn subscribe(session: &mut Subscriber, out: StreamId, data_stream: StreamId, top
     let reader = object_id(1, ObjectKind::DataReader);
     let mode = REUSE | REPLACE;
     let requests = [
-        session.buffer_create_participant_bin(out, participant, 0, Some("firmware_listener"), mode),
-        session.buffer_create_topic_bin(out, topic, participant, topic_name, "std_msgs::msg::dds_::String_", mode),
-        session.buffer_create_subscriber_bin(out, subscriber, participant, mode),
-        session.buffer_create_datareader_bin(out, reader, subscriber, topic, qos, mode),
+        fw::buffer(session, |s| s.buffer_create_participant_bin(out, participant, 0, Some("firmware_listener"), mode)),
+        fw::buffer(session, |s| {
+            s.buffer_create_topic_bin(out, topic, participant, topic_name, "std_msgs::msg::dds_::String_", mode)
+        }),
+        fw::buffer(session, |s| s.buffer_create_subscriber_bin(out, subscriber, participant, mode)),
+        fw::buffer(session, |s| s.buffer_create_datareader_bin(out, reader, subscriber, topic, qos, mode)),
     ];
-    let mut ids = [0u16; 4];
-    for (id, r) in ids.iter_mut().zip(requests) {
-        match r {
-            Ok(r) => *id = r,
-            Err(_) => return false,
-        }
-    }
-    if !fw::created(session, &ids, 5) {
+    let [Some(a), Some(b), Some(c), Some(d)] = requests else { return false };
+    if !fw::created(session, &[a, b, c, d], 5) {
         return false;
     }
     let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
-    session.buffer_request_data(out, reader, data_stream, Some(&control)).is_ok()
+    fw::buffer(session, |s| s.buffer_request_data(out, reader, data_stream, Some(&control))).is_some()
 }
 
 #[export_name = "main"]
