@@ -17,7 +17,7 @@ bool uart_read(uint8_t* byte);
 /* Time since reset. */
 int64_t board_nanos(void);
 int64_t board_millis(void);
-/* Sleeps until the next interrupt (a millisecond at most). */
+/* Sleeps until a byte arrives or the next tick (a millisecond at most). */
 void board_idle(void);
 
 /* Semihosting: text to the host's console, a number in decimal, the program's end with its exit code, the

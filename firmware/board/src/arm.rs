@@ -13,11 +13,20 @@ const UART0: usize = 0x4000_4000;
 const UART_DATA: *mut u32 = UART0 as *mut u32;
 const UART_STATE: *mut u32 = (UART0 + 0x4) as *mut u32;
 const UART_CTRL: *mut u32 = (UART0 + 0x8) as *mut u32;
+const UART_INTCLEAR: *mut u32 = (UART0 + 0xC) as *mut u32;
 const UART_BAUDDIV: *mut u32 = (UART0 + 0x10) as *mut u32;
 const STATE_TX_FULL: u32 = 1;
 const STATE_RX_FULL: u32 = 2;
 const CTRL_TX_EN: u32 = 1;
 const CTRL_RX_EN: u32 = 2;
+const CTRL_RX_INT_EN: u32 = 4;
+const INT_RX: u32 = 2;
+/// NVIC interrupt clear-pending register 0 (UART0's receive interrupt is line 0 on the mps2 boards).
+const NVIC_ICPR0: *mut u32 = 0xE000_E280 as *mut u32;
+/// System control register: bit 4, SEVONPEND, makes a newly pending interrupt wake `wfe` even while it is
+/// disabled in the NVIC.
+const SCB_SCR: *mut u32 = 0xE000_ED10 as *mut u32;
+const SCR_SEVONPEND: u32 = 1 << 4;
 
 /// The core clock of the mps2 boards (SysTick counts it).
 const CORE_HZ: u32 = 25_000_000;
@@ -33,7 +42,10 @@ pub fn init() {
     // SAFETY: the UART's registers, at the address the board maps them; no other code touches them.
     unsafe {
         UART_BAUDDIV.write_volatile(16);
-        UART_CTRL.write_volatile(CTRL_TX_EN | CTRL_RX_EN);
+        // The receive interrupt is never taken (disabled in the NVIC): with SEVONPEND its pending state wakes
+        // `idle` as soon as a byte arrives, rather than at the next tick.
+        UART_CTRL.write_volatile(CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
+        SCB_SCR.write_volatile(SCB_SCR.read_volatile() | SCR_SEVONPEND);
     }
     // SAFETY: the one place that configures SysTick, before anything reads it.
     let mut syst = unsafe { cortex_m::Peripherals::steal() }.SYST;
@@ -60,9 +72,9 @@ pub fn now_nanos() -> i64 {
     }
 }
 
-/// Sleeps until the next interrupt (the next millisecond at the latest).
+/// Sleeps until a byte arrives or the next tick (a millisecond at most).
 pub fn idle() {
-    cortex_m::asm::wfi();
+    cortex_m::asm::wfe();
 }
 
 pub fn uart_write(b: u8) {
@@ -74,8 +86,17 @@ pub fn uart_write(b: u8) {
 }
 
 pub fn uart_read() -> Option<u8> {
-    // SAFETY: the UART's registers (see `init`).
-    unsafe { (UART_STATE.read_volatile() & STATE_RX_FULL != 0).then(|| UART_DATA.read_volatile() as u8) }
+    // SAFETY: the UART's and the NVIC's registers (see `init`).
+    unsafe {
+        if UART_STATE.read_volatile() & STATE_RX_FULL == 0 {
+            return None;
+        }
+        let b = UART_DATA.read_volatile() as u8;
+        // Re-arm the wake-up: the next byte makes the interrupt pending again.
+        UART_INTCLEAR.write_volatile(INT_RX);
+        NVIC_ICPR0.write_volatile(u32::MAX);
+        Some(b)
+    }
 }
 
 // ---- semihosting --------------------------------------------------------------------------------------------
