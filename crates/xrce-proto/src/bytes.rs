@@ -52,10 +52,27 @@ pub fn rotate_left(buf: &mut [u8], mid: usize) {
     if mid == 0 || mid >= buf.len() {
         return;
     }
-    let (a, b) = buf.split_at_mut(mid);
-    a.reverse();
-    b.reverse();
-    buf.reverse();
+    let len = buf.len();
+    reverse(buf, 0, mid);
+    reverse(buf, mid, len);
+    reverse(buf, 0, len);
+}
+
+/// Reverses `buf[lo..hi]` in place. A loop of checked accesses rather than `<[u8]>::reverse` and
+/// `split_at_mut`: where they are not inlined their bounds panics link `core::fmt`'s integer printing.
+fn reverse(buf: &mut [u8], mut lo: usize, mut hi: usize) {
+    while lo + 1 < hi {
+        hi -= 1;
+        if let (Some(&a), Some(&b)) = (buf.get(lo), buf.get(hi)) {
+            if let Some(x) = buf.get_mut(lo) {
+                *x = b;
+            }
+            if let Some(y) = buf.get_mut(hi) {
+                *y = a;
+            }
+        }
+        lo += 1;
+    }
 }
 
 /// Rotates `buf` right by `k` bytes (`<[u8]>::rotate_right`): [`rotate_left`] by the rest.

@@ -175,6 +175,34 @@ pub fn stack_used() -> usize {
     start - a
 }
 
+/// Paints the stack again below the caller's frame (what start-up code already used there, a session built on
+/// the stack before it moved to its static, is forgotten); returns the address [`stack_used_below`] counts from.
+/// Word writes at word-aligned addresses: a wide store at an unaligned address faults on Cortex-M.
+#[inline(never)]
+pub fn paint_below_here() -> usize {
+    let marker = 0u8;
+    let top = core::hint::black_box(&marker) as *const u8 as usize & !7;
+    let end = core::ptr::addr_of!(_stack_end) as usize;
+    // This function's own frame lies within the 64 bytes under `top`.
+    let mut a = end;
+    while a + 4 <= top.saturating_sub(64) {
+        // SAFETY: word-aligned, unused stack between the end of RAM's data and this function's frame.
+        unsafe { (a as *mut u32).write_volatile(0xCCCC_CCCC) };
+        a += 4;
+    }
+    top
+}
+
+/// Bytes of stack used below `top` (from [`paint_below_here`]) since it was painted.
+pub fn stack_used_below(top: usize) -> usize {
+    let mut a = core::ptr::addr_of!(_stack_end) as usize;
+    // SAFETY: word-aligned addresses inside the stack region.
+    while a < top && unsafe { (a as *const u32).read_volatile() } == 0xCCCC_CCCC {
+        a += 4;
+    }
+    top.saturating_sub(a)
+}
+
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     crate::print(b"hard fault at pc ");

@@ -25,7 +25,7 @@ mod riscv;
 #[cfg(target_arch = "riscv32")]
 use riscv as hw;
 
-pub use hw::{exit, stack_used};
+pub use hw::{exit, paint_below_here, stack_used, stack_used_below};
 
 /// The client's message size on the serial line (eProsima's `UXR_CONFIG_SERIAL_TRANSPORT_MTU`).
 pub const MTU: usize = 512;

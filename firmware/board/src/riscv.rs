@@ -93,3 +93,11 @@ pub fn cmdline(_buf: &mut [u8]) -> usize {
 pub fn stack_used() -> usize {
     0
 }
+
+pub fn paint_below_here() -> usize {
+    0
+}
+
+pub fn stack_used_below(_top: usize) -> usize {
+    0
+}
