@@ -16,7 +16,7 @@
 # riscv32imc-unknown-none-elf), builds firmware/footprint instead (the same two publishers over the board's
 # UART with the framed serial transport, the publisher over a packet transport without framing, and a baseline
 # with the board's start-up, timer, console and fault handlers) and prints the same tables, plus how much of the
-# difference is compiler-builtins' mem* routines (the host figures leave the libc's out). With --run
+# difference is memcpy/memmove/memset (the board's byte loops; the host figures leave the libc's out). With --run
 # (thumbv7em-none-eabihf only) both publishers also run in QEMU's mps2-an386 against our agent's pseudoterminal
 # (`xrce-agent pseudoterminal -m ced`, built here) and print their RAM figures, peak stack included.
 set -euo pipefail
@@ -24,7 +24,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 
 section() { size -A "$1" | awk -v s="$2" '$1 == s { print $2; found = 1 } END { if (!found) print 0 }'; }
 
-# The sizes of the compiler-builtins memory routines in an ELF.
+# The sizes of the memory routines (memcpy, memmove, memset and their ARM run-time ABI forms) in an ELF.
 mem_routines() {
   nm -S -t d "$1" | awk '$4 ~ /(^__aeabi_mem|compiler_builtins3mem|^mem(cpy|move|set|cmp)$)/ { s += $2 } END { print s + 0 }'
 }
@@ -44,7 +44,7 @@ if [ "${1:-}" = --target ]; then
       d=$(( $(section "$bin/footprint-$p" $s) - $(section "$bin/footprint-baseline" $s) ))
       printf 'client + %-9s %-8s %8d B\n' "$p" "$s" "$d"
     done
-    printf 'client + %-9s %-8s %8d B (compiler-builtins mem* routines in the .text above)\n' "$p" mem \
+    printf 'client + %-9s %-8s %8d B (of the .text above: memcpy/memmove/memset routines)\n' "$p" mem \
       $(( $(mem_routines "$bin/footprint-$p") - $(mem_routines "$bin/footprint-baseline") ))
   done
   if [ "${3:-}" = --run ]; then

@@ -1,6 +1,7 @@
 /* Board support for the C firmware (board.h): QEMU's mps2-an386. */
 #include "board.h"
 
+#include <string.h>
 #include <time.h>
 
 #define UART0_BASE 0x40004000u
@@ -170,3 +171,79 @@ size_t board_stack_used(void) {
     }
     return (size_t)((uintptr_t)&__stack_top - (uintptr_t)p);
 }
+
+/* ---- memory routines ----
+ * The board's memcpy/memmove/memset family in byte loops (volatile, so the compiler does not turn them back into
+ * calls to themselves), as in the Rust board (firmware/board/src/arm.rs): one implementation for every firmware on
+ * this board, ours and eProsima's, in place of the Rust library's compiler-builtins ones (weak symbols) and
+ * newlib's. */
+
+static void copy_forward(volatile uint8_t* d, const volatile uint8_t* s, size_t n) {
+    for (size_t i = 0; i < n; i++) {
+        d[i] = s[i];
+    }
+}
+
+static void copy_backward(volatile uint8_t* d, const volatile uint8_t* s, size_t n) {
+    while (n-- > 0) {
+        d[n] = s[n];
+    }
+}
+
+static void fill(volatile uint8_t* d, size_t n, uint8_t c) {
+    for (size_t i = 0; i < n; i++) {
+        d[i] = c;
+    }
+}
+
+static void move(void* d, const void* s, size_t n) {
+    if ((uintptr_t)d <= (uintptr_t)s) {
+        copy_forward(d, s, n);
+    } else {
+        copy_backward(d, s, n);
+    }
+}
+
+void* memcpy(void* d, const void* s, size_t n) {
+    copy_forward(d, s, n);
+    return d;
+}
+
+void* memmove(void* d, const void* s, size_t n) {
+    move(d, s, n);
+    return d;
+}
+
+void* memset(void* d, int c, size_t n) {
+    fill(d, n, (uint8_t)c);
+    return d;
+}
+
+int memcmp(const void* a, const void* b, size_t n) {
+    const volatile uint8_t* x = a;
+    const volatile uint8_t* y = b;
+    for (size_t i = 0; i < n; i++) {
+        if (x[i] != y[i]) {
+            return (int)x[i] - (int)y[i];
+        }
+    }
+    return 0;
+}
+
+int bcmp(const void* a, const void* b, size_t n) {
+    return memcmp(a, b, n);
+}
+
+/* The ARM run-time ABI's forms; the 4 and 8 variants only promise alignment. memset's take the length first. */
+void __aeabi_memcpy(void* d, const void* s, size_t n) { copy_forward(d, s, n); }
+void __aeabi_memcpy4(void* d, const void* s, size_t n) { copy_forward(d, s, n); }
+void __aeabi_memcpy8(void* d, const void* s, size_t n) { copy_forward(d, s, n); }
+void __aeabi_memmove(void* d, const void* s, size_t n) { move(d, s, n); }
+void __aeabi_memmove4(void* d, const void* s, size_t n) { move(d, s, n); }
+void __aeabi_memmove8(void* d, const void* s, size_t n) { move(d, s, n); }
+void __aeabi_memset(void* d, size_t n, int c) { fill(d, n, (uint8_t)c); }
+void __aeabi_memset4(void* d, size_t n, int c) { fill(d, n, (uint8_t)c); }
+void __aeabi_memset8(void* d, size_t n, int c) { fill(d, n, (uint8_t)c); }
+void __aeabi_memclr(void* d, size_t n) { fill(d, n, 0); }
+void __aeabi_memclr4(void* d, size_t n) { fill(d, n, 0); }
+void __aeabi_memclr8(void* d, size_t n) { fill(d, n, 0); }

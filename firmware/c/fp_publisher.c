@@ -4,7 +4,6 @@
  * ucdr_* in place, session deleted. scripts/c-footprint.sh subtracts fp_empty.c. Runs against an agent on the
  * UART's line and prints its peak stack. */
 #include <uxr/client/client.h>
-#include <uxr/client/platform.h>
 #include <ucdr/microcdr.h>
 
 #include "board.h"

@@ -210,3 +210,169 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     crate::print(b"\n");
     exit(102)
 }
+
+// ---- memory routines ----------------------------------------------------------------------------------------
+//
+// The board's memcpy/memmove/memset family, in byte loops: compiler-builtins' (word-at-a-time, one copy per
+// alignment variant) take 1.7 KB of a Cortex-M firmware's code, these ~200 B, as a C firmware links newlib-nano's
+// size-optimised ones. compiler-builtins defines its own as weak symbols, so these replace them. Volatile
+// accesses keep LLVM from turning the loops back into calls to the functions they implement.
+
+mod mem {
+    /// Copies `n` bytes upwards.
+    ///
+    /// # Safety
+    /// `d` writable and `s` readable for `n` bytes; if they overlap, `d` is not above `s`.
+    unsafe fn forward(d: *mut u8, s: *const u8, n: usize) {
+        for i in 0..n {
+            // SAFETY: the caller's ranges.
+            unsafe { d.add(i).write_volatile(s.add(i).read_volatile()) };
+        }
+    }
+
+    /// Copies `n` bytes downwards.
+    ///
+    /// # Safety
+    /// `d` writable and `s` readable for `n` bytes.
+    unsafe fn backward(d: *mut u8, s: *const u8, n: usize) {
+        for i in (0..n).rev() {
+            // SAFETY: the caller's ranges.
+            unsafe { d.add(i).write_volatile(s.add(i).read_volatile()) };
+        }
+    }
+
+    /// # Safety
+    /// `d` writable for `n` bytes.
+    unsafe fn fill(d: *mut u8, n: usize, c: u8) {
+        for i in 0..n {
+            // SAFETY: the caller's range.
+            unsafe { d.add(i).write_volatile(c) };
+        }
+    }
+
+    /// # Safety
+    /// As C's `memmove`.
+    unsafe fn move_(d: *mut u8, s: *const u8, n: usize) {
+        if (d as usize) <= (s as usize) {
+            // SAFETY: the caller's ranges; moving down, each byte is read before it is overwritten.
+            unsafe { forward(d, s, n) }
+        } else {
+            // SAFETY: the caller's ranges; moving up, from the end.
+            unsafe { backward(d, s, n) }
+        }
+    }
+
+    /// C's `memcpy`.
+    ///
+    /// # Safety
+    /// As C's.
+    #[no_mangle]
+    pub unsafe extern "C" fn memcpy(d: *mut u8, s: *const u8, n: usize) -> *mut u8 {
+        // SAFETY: C's contract.
+        unsafe { forward(d, s, n) };
+        d
+    }
+
+    /// C's `memmove`.
+    ///
+    /// # Safety
+    /// As C's.
+    #[no_mangle]
+    pub unsafe extern "C" fn memmove(d: *mut u8, s: *const u8, n: usize) -> *mut u8 {
+        // SAFETY: C's contract.
+        unsafe { move_(d, s, n) };
+        d
+    }
+
+    /// C's `memset`.
+    ///
+    /// # Safety
+    /// As C's.
+    #[no_mangle]
+    pub unsafe extern "C" fn memset(d: *mut u8, c: i32, n: usize) -> *mut u8 {
+        // SAFETY: C's contract.
+        unsafe { fill(d, n, c as u8) };
+        d
+    }
+
+    /// C's `memcmp` (and `bcmp`, its equality-only form).
+    ///
+    /// # Safety
+    /// As C's.
+    #[no_mangle]
+    pub unsafe extern "C" fn memcmp(a: *const u8, b: *const u8, n: usize) -> i32 {
+        for i in 0..n {
+            // SAFETY: C's contract: both readable for `n` bytes.
+            let (x, y) = unsafe { (a.add(i).read_volatile(), b.add(i).read_volatile()) };
+            if x != y {
+                return i32::from(x) - i32::from(y);
+            }
+        }
+        0
+    }
+
+    /// C's `bcmp`.
+    ///
+    /// # Safety
+    /// As C's.
+    #[no_mangle]
+    pub unsafe extern "C" fn bcmp(a: *const u8, b: *const u8, n: usize) -> i32 {
+        // SAFETY: C's contract.
+        unsafe { memcmp(a, b, n) }
+    }
+
+    // The ARM run-time ABI's forms (what LLVM calls on ARM); the 4/8 variants only promise alignment.
+    macro_rules! aeabi {
+        ($($copy:ident),* ; $($move:ident),* ; $($set:ident),* ; $($clr:ident),*) => {
+            $(
+                /// ARM run-time ABI copy.
+                ///
+                /// # Safety
+                /// As C's `memcpy`.
+                #[no_mangle]
+                pub unsafe extern "C" fn $copy(d: *mut u8, s: *const u8, n: usize) {
+                    // SAFETY: the ABI's contract.
+                    unsafe { forward(d, s, n) }
+                }
+            )*
+            $(
+                /// ARM run-time ABI move.
+                ///
+                /// # Safety
+                /// As C's `memmove`.
+                #[no_mangle]
+                pub unsafe extern "C" fn $move(d: *mut u8, s: *const u8, n: usize) {
+                    // SAFETY: the ABI's contract.
+                    unsafe { move_(d, s, n) }
+                }
+            )*
+            $(
+                /// ARM run-time ABI set (note the argument order: length, then value).
+                ///
+                /// # Safety
+                /// As C's `memset`.
+                #[no_mangle]
+                pub unsafe extern "C" fn $set(d: *mut u8, n: usize, c: i32) {
+                    // SAFETY: the ABI's contract.
+                    unsafe { fill(d, n, c as u8) }
+                }
+            )*
+            $(
+                /// ARM run-time ABI clear.
+                ///
+                /// # Safety
+                /// As C's `memset` with 0.
+                #[no_mangle]
+                pub unsafe extern "C" fn $clr(d: *mut u8, n: usize) {
+                    // SAFETY: the ABI's contract.
+                    unsafe { fill(d, n, 0) }
+                }
+            )*
+        };
+    }
+
+    aeabi!(__aeabi_memcpy, __aeabi_memcpy4, __aeabi_memcpy8;
+           __aeabi_memmove, __aeabi_memmove4, __aeabi_memmove8;
+           __aeabi_memset, __aeabi_memset4, __aeabi_memset8;
+           __aeabi_memclr, __aeabi_memclr4, __aeabi_memclr8);
+}
