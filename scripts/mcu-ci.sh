@@ -45,7 +45,9 @@ qemu-system-arm --version | head -n 1
 step "build"
 build_start=$(date +%s)
 cargo build -q --release -p xrce-agent -p xrce-bench
-cargo build -q --release -p xrce-client --examples
+# The host programs: the workspace's examples as `cargo test --workspace --all-features` (CI's step before this
+# one) builds them, so nothing is built again there.
+cargo build -q --workspace --all-features --examples
 (cd firmware && cargo build -q --release)
 cargo build -q -p xrce-client-c --no-default-features --profile footprint --target thumbv7em-none-eabihf
 clib=$root/target/thumbv7em-none-eabihf/footprint
@@ -53,7 +55,7 @@ make -s -C firmware/c LIB="$clib" all check
 echo "build: $(( $(date +%s) - build_start )) s"
 agent=$root/target/release/xrce-agent
 proxy_bin=$root/target/release/xrce-bench
-ex=$root/target/release/examples
+ex=$root/target/debug/examples
 fw=$root/firmware/target/thumbv7em-none-eabihf/release
 cfw=$clib/firmware-c
 
