@@ -4,6 +4,7 @@
 # libmicrocdr.a, and the CMake packages microxrcedds_client and microcdr in PREFIX/lib/cmake/.
 #
 #   scripts/c-install.sh PREFIX [cargo build options, e.g. --target thumbv7em-none-eabihf]
+#   XRCE_C_MULTITHREAD=1 scripts/c-install.sh PREFIX    # eProsima's multithread profile (POSIX threads)
 #
 # libmicrocdr.a is a copy of the client archive (the Micro-CDR functions live there, beside one Rust runtime):
 # a library linking only -lmicrocdr (micro-ROS' type support) takes the objects it needs from it, and a
@@ -24,6 +25,11 @@ for arg in "$@"; do
 done
 mkdir -p "$prefix/include" "$prefix/lib/cmake/microxrcedds_client" "$prefix/lib/cmake/microcdr"
 cp -r crates/xrce-client-c/include/uxr crates/xrce-client-c/include/ucdr "$prefix/include/"
+if [ "${XRCE_C_MULTITHREAD:-0}" = 1 ]; then
+  # The headers must say what the library is: the profile's mutexes are fields of the shared structures.
+  sed -i 's|^/\* #define UCLIENT_PROFILE_MULTITHREAD \*/$|#define UCLIENT_PROFILE_MULTITHREAD|' "$prefix/include/uxr/client/config.h"
+  grep -q '^#define UCLIENT_PROFILE_MULTITHREAD$' "$prefix/include/uxr/client/config.h"
+fi
 install -m 644 "$lib_dir/libmicroxrcedds_client.a" "$prefix/lib/libmicroxrcedds_client.a"
 install -m 644 "$lib_dir/libmicroxrcedds_client.a" "$prefix/lib/libmicrocdr.a"
 install -m 644 crates/xrce-client-c/cmake/microxrcedds_client*.cmake "$prefix/lib/cmake/microxrcedds_client/"

@@ -301,9 +301,33 @@ const PROBES: &[Probe] = &[
     },
 ];
 
+/// The fields the multithread profile adds (`XRCE_C_MULTITHREAD=1`).
+const MULTITHREAD_PROBES: &[Probe] = &[
+    probe("uxrSession", "crate::session::uxrSession", &[("mutex", "mutex"), ("_opaque", "_opaque")]),
+    probe("uxrCommunication", "crate::comm::uxrCommunication", &[("mutex", "mutex")]),
+    probe("uxrOutputBestEffortStream", "crate::session::public::uxrOutputBestEffortStream", &[("mutex", "mutex")]),
+    probe("uxrOutputReliableStream", "crate::session::public::uxrOutputReliableStream", &[("mutex", "mutex")]),
+    probe("uxrInputBestEffortStream", "crate::session::public::uxrInputBestEffortStream", &[("mutex", "mutex")]),
+    probe("uxrInputReliableStream", "crate::session::public::uxrInputReliableStream", &[("mutex", "mutex")]),
+];
+
 fn main() {
     println!("cargo:rerun-if-changed=include");
+    println!("cargo:rerun-if-env-changed=XRCE_C_MULTITHREAD");
+    println!("cargo::rustc-check-cfg=cfg(uxr_multithread)");
     let out = PathBuf::from(env::var("OUT_DIR").unwrap_or_else(|e| panic!("OUT_DIR: {e}")));
+    // The multithread profile (eProsima's UCLIENT_PROFILE_MULTITHREAD): POSIX targets with `std` only.
+    let unix = env::var("CARGO_CFG_UNIX").is_ok();
+    let std = env::var("CARGO_FEATURE_STD").is_ok();
+    let multithread = env::var("XRCE_C_MULTITHREAD").is_ok_and(|v| v == "1");
+    if multithread && !(unix && std) {
+        panic!("XRCE_C_MULTITHREAD=1 needs a POSIX target and the `std` feature (POSIX threads)");
+    }
+    if multithread {
+        println!("cargo:rustc-cfg=uxr_multithread");
+    }
+    // The C tests compile their programs with the profile the library was built with.
+    println!("cargo:rustc-env=XRCE_C_MULTITHREAD={}", u8::from(multithread));
 
     let mut rust = String::new();
     for (header, c_name, rust_name) in OPAQUE {
@@ -311,7 +335,7 @@ fn main() {
         let value = define(&text, c_name).unwrap_or_else(|| panic!("{header} lacks #define {c_name}"));
         rust.push_str(&format!("/// `{c_name}`.\npub const {rust_name}: usize = {value};\n"));
     }
-    rust.push_str(&layout_assertions(&out));
+    rust.push_str(&layout_assertions(&out, multithread));
     fs::write(out.join("layout.rs"), rust).unwrap_or_else(|e| panic!("layout.rs: {e}"));
 
     empty_microcdr(&out);
@@ -325,15 +349,17 @@ fn main() {
 }
 
 /// Compiles the probe for the target and turns the sizes it records into Rust assertions.
-fn layout_assertions(out: &Path) -> String {
+fn layout_assertions(out: &Path, multithread: bool) -> String {
     let mut probe = String::from("#include <stddef.h>\n#include <uxr/client/client.h>\n");
-    for p in PROBES {
+    let extra: &[Probe] = if multithread { MULTITHREAD_PROBES } else { &[] };
+    for (n, p) in PROBES.iter().chain(extra).enumerate() {
+        let c = format!("{}{}", p.c, if n >= PROBES.len() { "__mt" } else { "" });
         let mut body = format!(
-            "char uxr_layout__{c}__size[sizeof({c}) + 1];\nchar uxr_layout__{c}__align[_Alignof({c}) + 1];\n",
-            c = p.c
+            "char uxr_layout__{c}__size[sizeof({t}) + 1];\nchar uxr_layout__{c}__align[_Alignof({t}) + 1];\n",
+            t = p.c
         );
         for (i, (member, _)) in p.fields.iter().enumerate() {
-            body.push_str(&format!("char uxr_layout__{c}__field{i}[offsetof({c}, {member}) + 1];\n", c = p.c));
+            body.push_str(&format!("char uxr_layout__{c}__field{i}[offsetof({t}, {member}) + 1];\n", t = p.c));
         }
         match p.needs {
             Some(profile) => probe.push_str(&format!("#ifdef {profile}\n{body}#endif\n")),
@@ -342,7 +368,11 @@ fn layout_assertions(out: &Path) -> String {
     }
     let file = out.join("layout_probe.c");
     fs::write(&file, probe).unwrap_or_else(|e| panic!("layout_probe.c: {e}"));
-    let objects = cc::Build::new()
+    let mut build = cc::Build::new();
+    if multithread {
+        build.define("UCLIENT_PROFILE_MULTITHREAD", None);
+    }
+    let objects = build
         .file(&file)
         .include("include")
         .std("c11")
@@ -367,9 +397,10 @@ fn layout_assertions(out: &Path) -> String {
         panic!("no layout symbols in the probe object: this object format does not record symbol sizes");
     }
     let mut rust = String::new();
-    for p in PROBES {
-        let Some(size) = sizes.get(&format!("{}__size", p.c)) else { continue };
-        let align = sizes.get(&format!("{}__align", p.c)).copied().unwrap_or(0);
+    for (n, p) in PROBES.iter().chain(extra).enumerate() {
+        let c = format!("{}{}", p.c, if n >= PROBES.len() { "__mt" } else { "" });
+        let Some(size) = sizes.get(&format!("{c}__size")) else { continue };
+        let align = sizes.get(&format!("{c}__align")).copied().unwrap_or(0);
         rust.push_str(&format!(
             "const _: () = assert!(core::mem::size_of::<{r}>() == {size} && core::mem::align_of::<{r}>() == {align}, \
              \"size or alignment of {c} differs from the C header\");\n",
@@ -377,12 +408,12 @@ fn layout_assertions(out: &Path) -> String {
             c = p.c
         ));
         for (i, (member, field)) in p.fields.iter().enumerate() {
-            let Some(offset) = sizes.get(&format!("{}__field{i}", p.c)) else { continue };
+            let Some(offset) = sizes.get(&format!("{c}__field{i}")) else { continue };
             rust.push_str(&format!(
                 "const _: () = assert!(core::mem::offset_of!({r}, {field}) == {offset}, \
-                 \"offset of {c}.{member} differs from the C header\");\n",
+                 \"offset of {t}.{member} differs from the C header\");\n",
                 r = p.rust,
-                c = p.c
+                t = p.c
             ));
         }
     }

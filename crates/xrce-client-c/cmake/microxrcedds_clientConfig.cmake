@@ -18,6 +18,6 @@ if(NOT TARGET microxrcedds_client)
 endif()
 
 set(microxrcedds_client_INCLUDE_DIR "${_uxr_prefix}/include")
-set(microxrcedds_client_LIBRARIES microxrcedds_client)
+set(microxrcedds_client_LIB_DIR "${_uxr_prefix}/lib")
 set(microxrcedds_client_FOUND TRUE)
 unset(_uxr_prefix)

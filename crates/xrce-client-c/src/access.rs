@@ -68,6 +68,13 @@ pub unsafe extern "C" fn uxr_prepare_output_stream(
         return 0;
     }
     let size = usize::try_from(data_size).unwrap_or(usize::MAX);
+    // The stream's lock is taken before the bytes are reserved and kept until the program's
+    // UXR_UNLOCK_STREAM_ID (multithread profile): no other thread sends them half-written.
+    #[cfg(uxr_multithread)]
+    // SAFETY: contract (a session, or null: no lock).
+    unsafe {
+        crate::lock::hold_stream(session, stream_id);
+    }
     // SAFETY: contract.
     let prepared = unsafe {
         with_outputs(session, Err(xrce_client::Error::Busy), |o| {
@@ -82,7 +89,14 @@ pub unsafe extern "C" fn uxr_prepare_output_stream(
         Ok(p) => p,
         Err(xrce_client::Error::TooLarge) if stream_id.type_ == RELIABLE_STREAM => {
             // SAFETY: contract.
-            return unsafe { crate::session::prepare_whole(session, stream_id, entity_id, ub, size) };
+            let request = unsafe { crate::session::prepare_whole(session, stream_id, entity_id, ub, size) };
+            // The fragmented write took its own hold on the stream.
+            #[cfg(uxr_multithread)]
+            // SAFETY: taken above by this thread.
+            unsafe {
+                crate::lock::release_stream(session, stream_id);
+            }
+            return request;
         }
         Err(_) => (0, core::ptr::null_mut(), 0),
     };
@@ -90,6 +104,11 @@ pub unsafe extern "C" fn uxr_prepare_output_stream(
     // session; the session does not touch it again before the program's next call on it, by which time the
     // program has serialized into it.
     unsafe { ub.write(ucdrBuffer::over(data, len, 0, 0, LITTLE)) };
+    #[cfg(uxr_multithread)]
+    if request == 0 {
+        // SAFETY: taken above by this thread.
+        unsafe { crate::lock::release_stream(session, stream_id) };
+    }
     request
 }
 

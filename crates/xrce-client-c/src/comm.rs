@@ -17,7 +17,7 @@ pub type CommError = Option<extern "C" fn() -> u8>;
 
 /// `uxrCommunication`.
 #[repr(C)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 #[allow(non_camel_case_types)]
 pub struct uxrCommunication {
     /// The transport, handed back to the functions.
@@ -30,17 +30,30 @@ pub struct uxrCommunication {
     pub comm_error: CommError,
     /// Largest message.
     pub mtu: u16,
+    /// The transport's lock (multithread profile).
+    #[cfg(uxr_multithread)]
+    pub mutex: crate::lock::uxrMutex,
 }
 
 /// A session's transport: the C program's `uxrCommunication`, which must outlive the session (seed 000).
 #[derive(Debug)]
 pub struct Comm(pub *const uxrCommunication);
 
+/// The functions of a `uxrCommunication`, read at each use (a program may change them).
+#[derive(Debug, Clone, Copy)]
+struct Table {
+    instance: *mut c_void,
+    send_msg: SendMsg,
+    recv_msg: RecvMsg,
+    mtu: u16,
+}
+
 impl Comm {
-    fn table(&self) -> Option<uxrCommunication> {
+    fn table(&self) -> Option<Table> {
         // SAFETY: the pointer was non-null when the session was initialised and the seed requires the
         // communication to stay valid while the session uses it; it is only read.
-        unsafe { self.0.as_ref() }.copied()
+        let c = unsafe { self.0.as_ref() }?;
+        Some(Table { instance: c.instance, send_msg: c.send_msg, recv_msg: c.recv_msg, mtu: c.mtu })
     }
 }
 
@@ -108,13 +121,16 @@ pub trait Binding {
 
 /// Fills `comm` for the transport structure at `this`, messages up to `mtu`.
 pub fn fill<B: Binding>(comm: &mut uxrCommunication, this: *mut B, mtu: usize) {
-    *comm = uxrCommunication {
-        instance: this.cast(),
-        send_msg: Some(send_through::<B>),
-        recv_msg: Some(recv_through::<B>),
-        comm_error: Some(last_error),
-        mtu: u16::try_from(mtu).unwrap_or(u16::MAX),
-    };
+    comm.instance = this.cast();
+    comm.send_msg = Some(send_through::<B>);
+    comm.recv_msg = Some(recv_through::<B>);
+    comm.comm_error = Some(last_error);
+    comm.mtu = u16::try_from(mtu).unwrap_or(u16::MAX);
+    // SAFETY: the transport's own lock, in memory being initialised with it and used by no thread yet.
+    #[cfg(uxr_multithread)]
+    unsafe {
+        crate::lock::uxr_init_lock(&mut comm.mutex);
+    }
 }
 
 /// `send_msg` of a library transport.

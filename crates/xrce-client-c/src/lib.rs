@@ -15,6 +15,7 @@ pub mod clock;
 pub mod comm;
 pub mod entities;
 pub mod layout;
+pub mod lock;
 pub mod platform;
 pub mod session;
 pub mod transport;

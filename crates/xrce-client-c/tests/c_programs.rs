@@ -40,6 +40,33 @@ fn library_dir() -> PathBuf {
     .clone()
 }
 
+/// Whether the library was built with the multithread profile (`XRCE_C_MULTITHREAD=1`, build.rs).
+const MULTITHREAD: bool = matches!(env!("XRCE_C_MULTITHREAD").as_bytes(), b"1");
+
+/// The headers as the library was built: `include/`, or (multithread profile) a copy whose config.h turns the
+/// profile on, as `scripts/c-install.sh` installs it.
+fn include_dir() -> PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("include");
+        if !MULTITHREAD {
+            return source;
+        }
+        let dir = library_dir().join("include-multithread");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("include copy");
+        let status = Command::new("cp").arg("-r").arg(source.join("uxr")).arg(source.join("ucdr")).arg(&dir).status();
+        assert!(status.expect("cp runs").success());
+        let config = dir.join("uxr/client/config.h");
+        let text = std::fs::read_to_string(&config).expect("config.h");
+        let on = text.replace("/* #define UCLIENT_PROFILE_MULTITHREAD */", "#define UCLIENT_PROFILE_MULTITHREAD");
+        assert_ne!(on, text, "config.h has the multithread marker line");
+        std::fs::write(&config, on).expect("config.h written");
+        dir
+    })
+    .clone()
+}
+
 /// The C compiler the build found for this target, at `opt_level`.
 fn c_compiler(opt_level: u32) -> cc::Tool {
     compiler(opt_level, false)
@@ -73,7 +100,7 @@ fn compile(name: &str, sanitize: bool) -> PathBuf {
     if sanitize {
         cmd.args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]);
     }
-    cmd.arg(&source).arg("-I").arg(crate_dir.join("include")).arg("-o").arg(&exe).arg("-L").arg(&lib_dir).args([
+    cmd.arg(&source).arg("-I").arg(include_dir()).arg("-o").arg(&exe).arg("-L").arg(&lib_dir).args([
         "-lmicroxrcedds_client",
         "-lmicrocdr",
         "-lpthread",
@@ -166,7 +193,6 @@ fn ping_time_references_deletion_custom_and_tcp_transports() {
 /// they compile cleanly in both, their layout checks included.
 #[test]
 fn the_headers_compile_as_c99_and_c11_with_pedantic_warnings_as_errors() {
-    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let probe = library_dir().join("headers.c");
     std::fs::write(
         &probe,
@@ -177,7 +203,7 @@ fn the_headers_compile_as_c99_and_c11_with_pedantic_warnings_as_errors() {
         let out = c_compiler(0)
             .to_command()
             .args([format!("-std={std}").as_str(), "-pedantic", "-Wall", "-Wextra", "-Werror", "-fsyntax-only", "-I"])
-            .arg(crate_dir.join("include"))
+            .arg(include_dir())
             .arg(&probe)
             .output()
             .expect("C compiler runs");
@@ -227,6 +253,15 @@ fn the_api_from_cpp_as_px4_uses_it() {
     run_with_agent("eprosima_api_cpp");
 }
 
+/// Two threads on one session, as a micro-ROS executor and a timer thread use it: one publishes (prepare,
+/// serialize, `UXR_UNLOCK_STREAM_ID`, as rmw_microxrcedds does), the other runs the session meanwhile; every
+/// sample arrives, in order. With the profile off (the default build) the program checks that the lock macros
+/// are empty and that a second thread entering a busy session gets the failure value, not a data race.
+#[test]
+fn two_threads_on_one_session_with_the_multithread_profile() {
+    run_with_agent("multithread");
+}
+
 #[test]
 fn a_49999_byte_sample_through_prepare_output_stream_is_fragmented_over_the_stream() {
     run_with_agent("big_prepare");
@@ -253,8 +288,8 @@ fn find_package_finds_the_installed_library_and_its_targets() {
         let status = Command::new("cp").arg("-r").arg(from).arg(to).status().expect("cp runs");
         assert!(status.success());
     };
-    copy_tree(&crate_dir.join("include/uxr"), &prefix.join("include"));
-    copy_tree(&crate_dir.join("include/ucdr"), &prefix.join("include"));
+    copy_tree(&include_dir().join("uxr"), &prefix.join("include"));
+    copy_tree(&include_dir().join("ucdr"), &prefix.join("include"));
     std::fs::copy(lib.join("libmicroxrcedds_client.a"), prefix.join("lib/libmicroxrcedds_client.a")).expect("lib");
     std::fs::copy(lib.join("libmicroxrcedds_client.a"), prefix.join("lib/libmicrocdr.a")).expect("lib");
     for entry in std::fs::read_dir(crate_dir.join("cmake")).expect("cmake dir").filter_map(Result::ok) {

@@ -217,6 +217,35 @@ unsafe fn begin(
 ) -> u16 {
     // SAFETY: contract.
     unsafe { finish_pending(session) };
+    // The stream's lock is taken before the write starts and kept, if it starts, until the program's
+    // UXR_UNLOCK_STREAM_ID (multithread profile): no other thread sends a window half-written.
+    #[cfg(uxr_multithread)]
+    // SAFETY: contract (a session, or null: no lock).
+    unsafe {
+        crate::lock::hold_stream(session, stream_id);
+    }
+    // SAFETY: contract.
+    let request = unsafe { start(session, stream_id, entity_id, ub, data_size, flush) };
+    #[cfg(uxr_multithread)]
+    if request == 0 {
+        // SAFETY: taken above by this thread.
+        unsafe { crate::lock::release_stream(session, stream_id) };
+    }
+    request
+}
+
+/// [`begin`] without the lock.
+///
+/// # Safety
+/// As [`begin`].
+unsafe fn start(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    entity_id: uxrObjectId,
+    ub: *mut ucdrBuffer,
+    data_size: usize,
+    flush: Flush,
+) -> u16 {
     // SAFETY: contract.
     let (Some(ub), Some(fragment)) = (unsafe { ub.as_mut() }, unsafe { fragment(session) }) else { return 0 };
     *ub = ucdrBuffer::over(core::ptr::null_mut(), 0, 0, 0, LITTLE);

@@ -100,9 +100,20 @@ unsafe fn slot(session: *mut uxrSession) -> Option<*mut Slot> {
 pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnOnce(&mut Inner) -> R) -> R {
     // SAFETY: contract.
     let Some(slot) = (unsafe { self::slot(session) }) else { return fallback };
+    // Other threads wait here (multithread profile); this one may already hold the locks (recursive).
+    // SAFETY: contract: an initialised session.
+    #[cfg(uxr_multithread)]
+    unsafe {
+        crate::lock::acquire(session);
+    }
     // SAFETY: an initialised slot; `busy` is only ever reached through shared references.
     let busy = unsafe { &*addr_of!((*slot).busy) };
     if busy.replace(true) {
+        // SAFETY: taken just above.
+        #[cfg(uxr_multithread)]
+        unsafe {
+            crate::lock::release(session);
+        }
         return fallback;
     }
     // SAFETY: not busy, so no other reference to the session exists; callbacks reach only `in_callback` and
@@ -113,6 +124,11 @@ pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnO
     // SAFETY: an initialised session; the named fields lie outside the Rust session's memory.
     unsafe { publish(session, inner) };
     busy.set(false);
+    // SAFETY: taken at the start.
+    #[cfg(uxr_multithread)]
+    unsafe {
+        crate::lock::release(session);
+    }
     result
 }
 
@@ -223,6 +239,8 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
             last_requested_status: public::STATUS_NONE,
             last_request_id: 9,
         });
+        #[cfg(uxr_multithread)]
+        crate::lock::init_session(session);
     }
     // SAFETY: `slot` is writable storage large and aligned enough (checked above at compile time); `write`
     // does not drop what was there.

@@ -46,7 +46,7 @@ pub struct uxrReliableStream {
 
 /// `uxrOutputBestEffortStream`.
 #[repr(C)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct uxrOutputBestEffortStream {
     /// The memory lent.
     pub buffer: *mut u8,
@@ -58,11 +58,14 @@ pub struct uxrOutputBestEffortStream {
     pub offset: u8,
     /// eProsima's last sequence number (0 here).
     pub last_send: u16,
+    /// Its lock (multithread profile).
+    #[cfg(uxr_multithread)]
+    pub mutex: crate::lock::uxrMutex,
 }
 
 /// `uxrOutputReliableStream`.
 #[repr(C)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct uxrOutputReliableStream {
     /// Memory and history.
     pub base: uxrReliableStream,
@@ -80,19 +83,25 @@ pub struct uxrOutputReliableStream {
     pub next_heartbeat_tries: u8,
     /// As `offset`.
     pub send_lost: bool,
+    /// Its lock (multithread profile).
+    #[cfg(uxr_multithread)]
+    pub mutex: crate::lock::uxrMutex,
 }
 
 /// `uxrInputBestEffortStream`.
 #[repr(C)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct uxrInputBestEffortStream {
     /// eProsima's engine state, 0 here.
     pub last_handled: u16,
+    /// Its lock (multithread profile).
+    #[cfg(uxr_multithread)]
+    pub mutex: crate::lock::uxrMutex,
 }
 
 /// `uxrInputReliableStream`.
 #[repr(C)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct uxrInputReliableStream {
     /// Memory and history.
     pub base: uxrReliableStream,
@@ -104,11 +113,14 @@ pub struct uxrInputReliableStream {
     pub on_get_fragmentation_info: Option<unsafe extern "C" fn(*mut u8) -> u32>,
     /// As `last_handled`.
     pub cleanup_flag: bool,
+    /// Its lock (multithread profile).
+    #[cfg(uxr_multithread)]
+    pub mutex: crate::lock::uxrMutex,
 }
 
 /// `uxrStreamStorage` with one stream of each kind (`UXR_CONFIG_MAX_*_STREAMS`).
 #[repr(C)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct uxrStreamStorage {
     /// Output best-effort streams.
     pub output_best_effort: [uxrOutputBestEffortStream; super::OBE],
@@ -190,6 +202,9 @@ pub struct uxrSession {
     pub on_pong_flag: u8,
     /// `continuous_args`.
     pub continuous_args: uxrContinuousArgs,
+    /// The session's lock (multithread profile).
+    #[cfg(uxr_multithread)]
+    pub mutex: crate::lock::uxrMutex,
     /// The Rust session (a `Slot`, see the module above).
     pub _opaque: [u64; crate::layout::SESSION_WORDS],
 }

@@ -66,6 +66,10 @@ unsafe fn session_request(session: *mut uxrSession, f: impl FnOnce(&mut Inner) -
 /// `session` null or a `uxrSession`.
 #[no_mangle]
 pub unsafe extern "C" fn uxr_create_session_retries(session: *mut uxrSession, retries: usize) -> bool {
+    // No attempt at all, as eProsima's (a program passing 0 means "do not try").
+    if retries == 0 {
+        return false;
+    }
     // SAFETY: contract.
     unsafe { session_request(session, |s| s.create_session_retries(retries).map(|()| true)) }
 }
@@ -86,6 +90,10 @@ pub unsafe extern "C" fn uxr_delete_session(session: *mut uxrSession) -> bool {
 /// `session` null or a `uxrSession`.
 #[no_mangle]
 pub unsafe extern "C" fn uxr_delete_session_retries(session: *mut uxrSession, retries: usize) -> bool {
+    // No attempt at all, as eProsima's: PX4 passes 0 when it gives a dead agent up.
+    if retries == 0 {
+        return false;
+    }
     // SAFETY: contract.
     unsafe { session_request(session, |s| s.delete_session_retries(retries)) }
 }

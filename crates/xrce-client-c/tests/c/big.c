@@ -54,27 +54,8 @@ static bool received_intact(int count) {
     return received_count == count && received_len == PAYLOAD && memcmp(payload, received, PAYLOAD) == 0;
 }
 
-static const char* participant_xml =
-    "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
-static const char* topic_xml = "<dds><topic><name>BigTopic</name><dataType>Big</dataType></topic></dds>";
-static const char* writer_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>BigTopic</name>"
-                                "<dataType>Big</dataType></topic></data_writer></dds>";
-static const char* reader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>BigTopic</name>"
-                                "<dataType>Big</dataType></topic></data_reader></dds>";
-
 static bool create(Node* node, bool writer) {
-    uxrObjectId participant = uxr_object_id(1, UXR_PARTICIPANT_ID);
-    uxrObjectId topic = uxr_object_id(1, UXR_TOPIC_ID);
-    uxrObjectId parent = uxr_object_id(1, writer ? UXR_PUBLISHER_ID : UXR_SUBSCRIBER_ID);
-    uxrObjectId endpoint = uxr_object_id(1, writer ? UXR_DATAWRITER_ID : UXR_DATAREADER_ID);
-    uint16_t r[4];
-    r[0] = uxr_buffer_create_participant_xml(&node->session, node->out, participant, 0, participant_xml, UXR_REPLACE);
-    r[1] = uxr_buffer_create_topic_xml(&node->session, node->out, topic, participant, topic_xml, UXR_REPLACE);
-    r[2] = writer ? uxr_buffer_create_publisher_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE)
-                  : uxr_buffer_create_subscriber_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE);
-    r[3] = writer ? uxr_buffer_create_datawriter_xml(&node->session, node->out, endpoint, parent, writer_xml, UXR_REPLACE)
-                  : uxr_buffer_create_datareader_xml(&node->session, node->out, endpoint, parent, reader_xml, UXR_REPLACE);
-    return node_statuses_ok(node, r, 4, writer ? "writer" : "reader");
+    return node_create_endpoint(node, writer, "BigTopic", "Big");
 }
 
 int main(int argc, char** argv) {
@@ -102,14 +83,7 @@ int main(int argc, char** argv) {
     if (!create(&subscriber, false) || !create(&publisher, true)) {
         return 1;
     }
-    uxrDeliveryControl control = {UXR_MAX_SAMPLES_UNLIMITED, 0, 0, 0};
-    uxr_buffer_request_data(&subscriber.session, subscriber.out, uxr_object_id(1, UXR_DATAREADER_ID), subscriber.in, &control);
-    uxr_run_session_until_confirm_delivery(&subscriber.session, 1000);
-    /* an agent on DDS matches its writer and reader first (SETTLE_MS) */
-    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
-        uxr_run_session_time(&subscriber.session, 5);
-        uxr_run_session_time(&publisher.session, 5);
-    }
+    node_read_all_then_settle(&subscriber, &publisher, argc, argv);
 
     ucdrBuffer ub;
     uint32_t size = 4 + PAYLOAD;

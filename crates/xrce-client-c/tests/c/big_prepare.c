@@ -31,27 +31,8 @@ static void on_topic(uxrSession* session, uxrObjectId object_id, uint16_t reques
     }
 }
 
-static const char* participant_xml =
-    "<dds><participant><rtps><name>default_xrce_participant</name></rtps></participant></dds>";
-static const char* topic_xml = "<dds><topic><name>BigHelloWorldTopic</name><dataType>BigHelloWorld</dataType></topic></dds>";
-static const char* writer_xml = "<dds><data_writer><topic><kind>NO_KEY</kind><name>BigHelloWorldTopic</name>"
-                                "<dataType>BigHelloWorld</dataType></topic></data_writer></dds>";
-static const char* reader_xml = "<dds><data_reader><topic><kind>NO_KEY</kind><name>BigHelloWorldTopic</name>"
-                                "<dataType>BigHelloWorld</dataType></topic></data_reader></dds>";
-
 static bool create(Node* node, bool writer) {
-    uxrObjectId participant = uxr_object_id(1, UXR_PARTICIPANT_ID);
-    uxrObjectId topic = uxr_object_id(1, UXR_TOPIC_ID);
-    uxrObjectId parent = uxr_object_id(1, writer ? UXR_PUBLISHER_ID : UXR_SUBSCRIBER_ID);
-    uxrObjectId endpoint = uxr_object_id(1, writer ? UXR_DATAWRITER_ID : UXR_DATAREADER_ID);
-    uint16_t r[4];
-    r[0] = uxr_buffer_create_participant_xml(&node->session, node->out, participant, 0, participant_xml, UXR_REPLACE);
-    r[1] = uxr_buffer_create_topic_xml(&node->session, node->out, topic, participant, topic_xml, UXR_REPLACE);
-    r[2] = writer ? uxr_buffer_create_publisher_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE)
-                  : uxr_buffer_create_subscriber_xml(&node->session, node->out, parent, participant, "", UXR_REPLACE);
-    r[3] = writer ? uxr_buffer_create_datawriter_xml(&node->session, node->out, endpoint, parent, writer_xml, UXR_REPLACE)
-                  : uxr_buffer_create_datareader_xml(&node->session, node->out, endpoint, parent, reader_xml, UXR_REPLACE);
-    return node_statuses_ok(node, r, 4, writer ? "writer" : "reader");
+    return node_create_endpoint(node, writer, "BigHelloWorldTopic", "BigHelloWorld");
 }
 
 int main(int argc, char** argv) {
@@ -78,13 +59,7 @@ int main(int argc, char** argv) {
     if (!create(&subscriber, false) || !create(&publisher, true)) {
         return 1;
     }
-    uxrDeliveryControl control = {UXR_MAX_SAMPLES_UNLIMITED, 0, 0, 0};
-    uxr_buffer_request_data(&subscriber.session, subscriber.out, uxr_object_id(1, UXR_DATAREADER_ID), subscriber.in, &control);
-    uxr_run_session_until_confirm_delivery(&subscriber.session, 1000);
-    for (int waited = 0; argc > 3 && waited < atoi(argv[3]); waited += 10) {
-        uxr_run_session_time(&subscriber.session, 5);
-        uxr_run_session_time(&publisher.session, 5);
-    }
+    node_read_all_then_settle(&subscriber, &publisher, argc, argv);
 
     int intact = 0;
     for (uint32_t index = 1; index <= 3; index++) {

@@ -784,11 +784,18 @@ impl<
 
     /// `uxr_ping_agent_session`: GET_INFO in the session up to `attempts` times, `timeout_ms` apart; whether the
     /// agent answered and knows the session. Works with every session id, with or without key.
+    /// It returns after `attempts` × `timeout_ms` at most, as eProsima's client does.
     pub fn ping_agent_session(&mut self, timeout_ms: i32, attempts: u8) -> Result<bool> {
-        let now = self.now();
-        self.core.ping(i64::from(timeout_ms.max(1)), usize::from(attempts), now);
+        let start = self.now();
+        let period = i64::from(timeout_ms.max(1));
+        self.core.ping(period, usize::from(attempts), start);
+        let deadline = start.saturating_add(period.saturating_mul(MILLIS).saturating_mul(i64::from(attempts.max(1))));
         while self.core.ping_state() == PingState::Pending {
-            self.listen(timeout_ms.max(1))?;
+            let left_ms = (deadline - self.now() + MILLIS - 1) / MILLIS;
+            if left_ms <= 0 {
+                break;
+            }
+            self.listen(i32::try_from(left_ms).unwrap_or(i32::MAX))?;
         }
         Ok(self.core.ping_state() == PingState::Answered)
     }

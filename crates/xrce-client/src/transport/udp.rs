@@ -81,6 +81,46 @@ impl Transport for UdpTransport {
         }
     }
 
+    /// Waits up to `timeout_ms` (negative: forever) for a datagram. On Unix it waits in poll(2) and reads
+    /// without blocking, so a socket the program made non-blocking (PX4 does, through `platform.poll_fd.fd`)
+    /// still waits the whole timeout, as eProsima's transport does. An ICMP "port unreachable" from an earlier
+    /// datagram (nobody listens yet) is silence: the wait goes on to the end of the timeout.
+    #[cfg(unix)]
+    fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
+        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+        use nix::sys::socket::MsgFlags;
+        use std::os::fd::{AsFd, AsRawFd};
+        // 0: whatever is there now (poll(2) takes 0; the socket option of the other path cannot).
+        let now = std::time::Instant::now();
+        let deadline = if timeout_ms == 0 { Some(now) } else { timeout(timeout_ms).map(|t| now + t) };
+        loop {
+            let wait = match deadline {
+                None => PollTimeout::NONE,
+                Some(d) => {
+                    let left = d.saturating_duration_since(std::time::Instant::now());
+                    // Rounded up, so a short wait is not a busy loop.
+                    let ms = left.as_millis().saturating_add(u128::from(left.subsec_nanos() % 1_000_000 > 0));
+                    PollTimeout::try_from(ms).unwrap_or(PollTimeout::MAX)
+                }
+            };
+            let mut fds = [PollFd::new(self.socket.as_fd(), PollFlags::POLLIN)];
+            match poll(&mut fds, wait) {
+                Ok(0) => return Ok(None),
+                Ok(_) | Err(nix::errno::Errno::EINTR) => {}
+                Err(e) => return Err(std::io::Error::from(e).into()),
+            }
+            match nix::sys::socket::recv(self.socket.as_raw_fd(), buf, MsgFlags::MSG_DONTWAIT) {
+                Ok(n) => return Ok(Some(n)),
+                Err(nix::errno::Errno::EAGAIN | nix::errno::Errno::EINTR | nix::errno::Errno::ECONNREFUSED) => {}
+                Err(e) => return Err(std::io::Error::from(e).into()),
+            }
+            if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                return Ok(None);
+            }
+        }
+    }
+
+    #[cfg(not(unix))]
     fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
         self.socket.set_read_timeout(timeout(timeout_ms))?;
         match self.socket.recv(buf) {

@@ -27,8 +27,11 @@
 #define UCLIENT_PROFILE_CAN
 #endif
 #endif
-/* Not built: UCLIENT_PROFILE_MULTITHREAD (one thread per session, as eProsima's default build and PX4's), and
- * UCLIENT_PROFILE_SHARED_MEMORY (eProsima's in-process loopback between a client's own entities). */
+/* The multithread profile: off in the default build (one thread per session at a time, as eProsima's default
+ * build and PX4's). A library built with XRCE_C_MULTITHREAD=1 and installed by scripts/c-install.sh has it on
+ * (POSIX: pthread recursive mutexes), the next line then reading `#define UCLIENT_PROFILE_MULTITHREAD`. */
+/* #define UCLIENT_PROFILE_MULTITHREAD */
+/* Not built: UCLIENT_PROFILE_SHARED_MEMORY (eProsima's in-process loopback between a client's own entities). */
 
 #define UXR_CONFIG_MAX_OUTPUT_BEST_EFFORT_STREAMS 1
 #define UXR_CONFIG_MAX_OUTPUT_RELIABLE_STREAMS 1

@@ -11,6 +11,9 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <uxr/client/config.h>
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+#include <uxr/client/profile/multithread/multithread.h>
+#endif
 
 #ifdef __cplusplus
 extern "C" {
@@ -26,6 +29,9 @@ typedef struct uxrCommunication {
     recv_msg_func recv_msg;
     comm_error_func comm_error;
     uint16_t mtu;
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+    uxrMutex mutex;
+#endif
 } uxrCommunication;
 
 #ifdef __cplusplus

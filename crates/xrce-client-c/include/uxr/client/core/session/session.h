@@ -84,6 +84,9 @@ typedef struct uxrSession {
     bool on_data_flag;
     pong_status_t on_pong_flag;
     uxrContinuousArgs continuous_args;
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+    uxrMutex mutex;
+#endif
 
     uint64_t _opaque[UXR_SESSION_OPAQUE_WORDS];
 } uxrSession;

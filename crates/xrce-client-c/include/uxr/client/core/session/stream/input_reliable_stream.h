@@ -5,6 +5,9 @@
 #include <uxr/client/config.h>
 #include <uxr/client/core/session/stream/reliable_stream.h>
 #include <uxr/client/core/session/stream/seq_num.h>
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+#include <uxr/client/profile/multithread/multithread.h>
+#endif
 struct ucdrBuffer;
 typedef enum FragmentationInfo {
     NO_FRAGMENTED,
@@ -19,5 +22,8 @@ typedef struct uxrInputReliableStream {
     uxrSeqNum last_announced;
     OnGetFragmentationInfo on_get_fragmentation_info;
     bool cleanup_flag;
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+    uxrMutex mutex;
+#endif
 } uxrInputReliableStream;
 #endif /* UXR_CLIENT_CORE_SESSION_STREAM_INPUT_RELIABLE_STREAM_H_ */

@@ -5,6 +5,9 @@
 #include <stddef.h>
 #include <uxr/client/config.h>
 #include <uxr/client/core/session/stream/seq_num.h>
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+#include <uxr/client/profile/multithread/multithread.h>
+#endif
 struct ucdrBuffer;
 typedef struct uxrOutputBestEffortStream {
     uint8_t* buffer;
@@ -12,5 +15,8 @@ typedef struct uxrOutputBestEffortStream {
     size_t size;
     uint8_t offset;
     uxrSeqNum last_send;
+#ifdef UCLIENT_PROFILE_MULTITHREAD
+    uxrMutex mutex;
+#endif
 } uxrOutputBestEffortStream;
 #endif /* UXR_CLIENT_CORE_SESSION_STREAM_OUTPUT_BEST_EFFORT_STREAM_H_ */
