@@ -14,6 +14,7 @@ pub mod procstat;
 pub mod proxy;
 pub mod report;
 pub mod ros;
+pub mod serial_proxy;
 pub mod sessions;
 pub mod throughput;
 pub mod udp_ceiling;

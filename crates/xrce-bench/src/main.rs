@@ -40,6 +40,9 @@ enum Command {
     UdpCeiling(CeilingArgs),
     /// UDP proxy that drops, duplicates, reorders, delays and corrupts datagrams deterministically.
     LossyProxy(ProxyArgs),
+    /// A serial line between two pseudoterminals (a firmware's and the agent's) that drops, corrupts and splits
+    /// bytes at set rates; prints both devices, then the counters when done.
+    SerialProxy(SerialProxyArgs),
     /// Client footprint: runs scripts/footprint.sh (no_std client sizes).
     Footprint(FootprintArgs),
     /// A micro-ROS-like node against a ROS 2 node through the agent: publishes stamped samples at a rate
@@ -320,6 +323,34 @@ struct ProxyArgs {
 }
 
 #[derive(Args, Debug)]
+struct SerialProxyArgs {
+    /// Probability a byte is lost.
+    #[arg(long, default_value_t = 0.0)]
+    drop: f64,
+    /// Probability a byte gets one bit flipped.
+    #[arg(long, default_value_t = 0.0)]
+    corrupt: f64,
+    /// Largest piece a run of bytes is split into (0: runs pass as read).
+    #[arg(long, default_value_t = 0)]
+    split: usize,
+    /// Pause between two pieces of a split run.
+    #[arg(long, default_value = "1ms", value_parser = parse_duration)]
+    gap: Duration,
+    /// PRNG seed (the other direction uses seed + 1).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Stop after this long (default: run until killed, or until --stop-file exists).
+    #[arg(long, value_parser = parse_duration)]
+    duration: Option<Duration>,
+    /// Stop (and print the counters) once this file exists.
+    #[arg(long)]
+    stop_file: Option<std::path::PathBuf>,
+    /// Print the final counters as a JSON line.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args, Debug)]
 struct FootprintArgs {
     /// The script to run.
     #[arg(long, default_value = "scripts/footprint.sh")]
@@ -541,6 +572,50 @@ fn proxy_cmd(a: &ProxyArgs) -> Result<(), BenchError> {
     Ok(())
 }
 
+#[cfg(target_os = "linux")]
+fn serial_proxy_cmd(a: &SerialProxyArgs) -> Result<(), BenchError> {
+    use std::io::Write;
+    use std::sync::Arc;
+    use xrce_bench::serial_proxy::{self, ByteFaultConfig, SerialProxy};
+    let cfg = ByteFaultConfig {
+        drop: probability(a.drop, "drop")?,
+        corrupt: probability(a.corrupt, "corrupt")?,
+        split: a.split,
+        seed: a.seed,
+    };
+    let proxy = SerialProxy::open()?;
+    let (dev_a, dev_b) = proxy.devices();
+    println!("A {dev_a}");
+    println!("B {dev_b}");
+    std::io::stdout().flush()?;
+    eprintln!(
+        "serial-proxy {dev_a} <-> {dev_b} (drop {}, corrupt {}, split {}, gap {:?}, seed {})",
+        cfg.drop, cfg.corrupt, cfg.split, a.gap, cfg.seed
+    );
+    let stop = Arc::new(AtomicBool::new(false));
+    if let Some(file) = a.stop_file.clone() {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            while !file.exists() {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        });
+    }
+    let stats = serial_proxy::run(proxy, cfg, a.gap, &stop, a.duration)?;
+    if a.json {
+        println!("{}", report::json_line(&stats));
+    } else {
+        println!("A->B {:?}; B->A {:?}", stats.a_to_b, stats.b_to_a);
+    }
+    Ok(())
+}
+
+#[cfg(not(target_os = "linux"))]
+fn serial_proxy_cmd(_: &SerialProxyArgs) -> Result<(), BenchError> {
+    Err(BenchError::Config("serial-proxy needs Linux pseudoterminals".into()))
+}
+
 fn ros_cmd(a: &RosArgs) -> Result<(), BenchError> {
     let count = (a.rate * a.duration.as_secs_f64()).round() as u64;
     let cfg = RosConfig {
@@ -585,6 +660,7 @@ fn main() -> ExitCode {
         Command::Sessions(a) => sessions_cmd(a),
         Command::UdpCeiling(a) => ceiling_cmd(a),
         Command::LossyProxy(a) => proxy_cmd(a),
+        Command::SerialProxy(a) => serial_proxy_cmd(a),
         Command::Footprint(a) => footprint_cmd(a),
         Command::Ros(a) => ros_cmd(a),
     };

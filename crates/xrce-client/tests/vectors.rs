@@ -501,6 +501,20 @@ fn ping_17_9_in_session_with_and_without_key() {
 }
 
 #[test]
+fn a_ping_outside_an_established_session_fails_at_once() {
+    // A micro-ROS-like firmware pings, finds the agent gone, tries to create the session again (which times
+    // out), then pings again: that ping must fail, not stay pending with a retry due forever.
+    let mut core = SessionCore::<1, 1, 1, 1>::new(0x81, 0xAABB_CCDD, 512);
+    core.create_session_retries(1, 0);
+    let sent: usize = (0..1500).map(|ms| drain(&mut core, ms * MILLIS).len()).sum();
+    assert_eq!((sent, core.state()), (1, SessionState::CreateTimedOut));
+    core.ping(100, 3, 2000 * MILLIS);
+    assert_eq!(core.ping_state(), PingState::Failed);
+    assert_eq!(drain(&mut core, 2000 * MILLIS), Vec::<Vec<u8>>::new());
+    assert_eq!(core.poll_timeout(), None);
+}
+
+#[test]
 fn out_of_session_ping_bytes_17_9() {
     let mut buf = [0u8; 16];
     let n = xrce_client::session::ping::encode_get_info(xrce_proto::RequestId::PING, 0x02, &mut buf).unwrap();

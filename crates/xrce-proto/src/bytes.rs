@@ -44,6 +44,45 @@ pub fn copy_within(buf: &mut [u8], src: core::ops::Range<usize>, dest: usize) ->
     n
 }
 
+/// Rotates `buf` left by `mid` bytes (`<[u8]>::rotate_left`) by three reversals; `mid` beyond the length
+/// rotates by nothing. `rotate_left` moves the bytes with `memmove`, which on a Cortex-M firmware links
+/// compiler-builtins' 1.6 KB implementation for this one use; the reversals swap bytes in place (twice the
+/// moves, over histories of a few KiB, on fragment reassembly and stream renumbering only).
+pub fn rotate_left(buf: &mut [u8], mid: usize) {
+    if mid == 0 || mid >= buf.len() {
+        return;
+    }
+    let len = buf.len();
+    reverse(buf, 0, mid);
+    reverse(buf, mid, len);
+    reverse(buf, 0, len);
+}
+
+/// Reverses `buf[lo..hi]` in place. A loop of checked accesses rather than `<[u8]>::reverse` and
+/// `split_at_mut`: where they are not inlined their bounds panics link `core::fmt`'s integer printing.
+fn reverse(buf: &mut [u8], mut lo: usize, mut hi: usize) {
+    while lo + 1 < hi {
+        hi -= 1;
+        if let (Some(&a), Some(&b)) = (buf.get(lo), buf.get(hi)) {
+            if let Some(x) = buf.get_mut(lo) {
+                *x = b;
+            }
+            if let Some(y) = buf.get_mut(hi) {
+                *y = a;
+            }
+        }
+        lo += 1;
+    }
+}
+
+/// Rotates `buf` right by `k` bytes (`<[u8]>::rotate_right`): [`rotate_left`] by the rest.
+pub fn rotate_right(buf: &mut [u8], k: usize) {
+    if k == 0 || k >= buf.len() {
+        return;
+    }
+    rotate_left(buf, buf.len() - k);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -77,5 +116,27 @@ mod tests {
         assert_eq!(copy_within(&mut buf, 7..9, 0), 0);
         let reversed = core::ops::Range { start: 3, end: 1 };
         assert_eq!(copy_within(&mut buf, reversed, 0), 0);
+    }
+
+    #[test]
+    fn rotations_match_the_slice_methods() {
+        for len in 0..9usize {
+            for k in 0..=len + 1 {
+                let orig: [u8; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
+                let mut a = orig;
+                let mut b = orig;
+                rotate_left(&mut a[..len], k);
+                if k < len {
+                    b[..len].rotate_left(k);
+                }
+                assert_eq!(a, b, "left len {len} k {k}");
+                let (mut a, mut b) = (orig, orig);
+                rotate_right(&mut a[..len], k);
+                if k < len {
+                    b[..len].rotate_right(k);
+                }
+                assert_eq!(a, b, "right len {len} k {k}");
+            }
+        }
     }
 }

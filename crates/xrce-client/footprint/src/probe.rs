@@ -104,7 +104,8 @@ static mut SESSION: MaybeUninit<Publisher> = MaybeUninit::uninit();
 #[inline(never)]
 fn paint() -> usize {
     let marker = 0u8;
-    let top = core::hint::black_box(&marker) as *const u8 as usize;
+    // 8-aligned: the pattern is written a word at a time (an unaligned wide store faults on Cortex-M).
+    let top = core::hint::black_box(&marker) as *const u8 as usize & !7;
     for a in (top - PAINT..top - 64).step_by(8) {
         // SAFETY: unused stack below the live frames, inside the main thread's stack mapping.
         unsafe { core::ptr::write_volatile(a as *mut u64, 0xA5A5_A5A5_A5A5_A5A5) };

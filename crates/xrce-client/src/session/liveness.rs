@@ -228,7 +228,7 @@ impl Liveness {
 
     pub(super) fn push(&mut self, event: SessionEvent) {
         if self.events.iter().all(|&e| e != 0) {
-            self.events.rotate_left(1);
+            xrce_proto::bytes::rotate_left(&mut self.events, 1);
             if let Some(last) = self.events.last_mut() {
                 *last = 0;
             }
@@ -240,7 +240,7 @@ impl Liveness {
 
     pub(super) fn pop(&mut self) -> Option<SessionEvent> {
         let first = core::mem::take(self.events.first_mut()?);
-        self.events.rotate_left(1);
+        xrce_proto::bytes::rotate_left(&mut self.events, 1);
         SessionEvent::from_code(first)
     }
 }

@@ -588,6 +588,13 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// Starts an in-session ping (`uxr_ping_agent_session`): GET_INFO up to `attempts` times, `timeout_ms`
     /// apart. Unlike the C client this works for every session id, with or without key.
     pub fn ping(&mut self, timeout_ms: i64, attempts: usize, now: i64) {
+        if self.st.state != SessionState::Established {
+            // Nothing is sent outside an established session (a creation that timed out, a deleted one): the
+            // ping fails at once, rather than stay pending with a retry due forever (a blocking ping would spin).
+            self.st.ping = PingState::Failed;
+            self.st.ping_retry = None;
+            return;
+        }
         self.st.ping = PingState::Pending;
         self.st.ping_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: timeout_ms.max(1) * MILLIS });

@@ -194,7 +194,7 @@ impl<'a> InputReliable<'a> {
     /// payloads down in place: no extra memory. [`finish_assembly`](Self::finish_assembly) undoes the rotation.
     pub fn assemble(&mut self, first: u16, count: u16) -> usize {
         let shift = self.index(first) * self.slot;
-        self.buf.rotate_left(shift);
+        xrce_proto::bytes::rotate_left(self.buf, shift);
         let mut join = InPlaceJoin::new();
         for j in 0..usize::from(count) {
             let at = j * self.slot + SLOT_LEN_WORD;
@@ -212,7 +212,7 @@ impl<'a> InputReliable<'a> {
     /// Restores the slot layout after [`assemble`](Self::assemble) and releases the run.
     pub fn finish_assembly(&mut self, first: u16, count: u16) {
         let shift = self.index(first) * self.slot;
-        self.buf.rotate_right(shift);
+        xrce_proto::bytes::rotate_right(self.buf, shift);
         self.release(first, count);
     }
 }

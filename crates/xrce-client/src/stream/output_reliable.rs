@@ -186,7 +186,7 @@ impl<'a> OutputReliable<'a> {
         let first = self.sender.last_acked().next().0;
         let history = self.slots.history;
         let shift = usize::from(first & (history - 1)) * self.slots.slot;
-        self.slots.buf.rotate_left(shift);
+        xrce_proto::bytes::rotate_left(self.slots.buf, shift);
         self.last_written = self.last_written.wrapping_sub(first);
         if let Some(c) = self.chain.as_mut() {
             #[cfg(feature = "reconnect")]
