@@ -1,7 +1,7 @@
 //! Creating and deleting the session, the `uxr_run_session_*` family, time and ping.
 
 use super::fragmented::finish_pending;
-use super::public::{NO_PONG, STATUS_NONE};
+use super::public::{NO_PONG, PONG_NO_SESSION, STATUS_NONE};
 use super::{get_field, set_field, uxrSession, with_session, Inner};
 use crate::comm::{uxrCommunication, Comm};
 
@@ -285,7 +285,24 @@ pub unsafe extern "C" fn uxr_ping_agent_session(session: *mut uxrSession, timeou
     // SAFETY: contract.
     unsafe {
         set_field(session, |s| field!(s, on_pong_flag), NO_PONG);
-        with_session(session, false, |s| s.ping_agent_session(timeout_ms, attempts).unwrap_or(false))
+        let (answered, established) = with_session(session, (false, true), |s| {
+            if s.core().state() == xrce_client::SessionState::Established {
+                (s.ping_agent_session(timeout_ms, attempts).unwrap_or(false), true)
+            } else {
+                // Outside an established session eProsima's client still sends its GET_INFO and waits: an
+                // agent answers without knowing the session, and the call returns false after the timeout, not
+                // at once (a program retrying in a loop would spin).
+                let pong = xrce_client::ping_agent_attempts(s.transport(), timeout_ms, attempts).unwrap_or(false);
+                (pong, false)
+            }
+        });
+        if !established {
+            if answered {
+                set_field(session, |s| field!(s, on_pong_flag), PONG_NO_SESSION);
+            }
+            return false;
+        }
+        answered
     }
 }
 
