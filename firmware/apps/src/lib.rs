@@ -3,7 +3,10 @@
 #![no_std]
 
 use xrce_board as board;
-use xrce_client::{Error, Session, SessionState};
+use xrce_client::{
+    object_id, DeliveryControl, Error, ObjectId, ObjectKind, ServiceNames, Session, SessionState, StreamId,
+    WriteAccessExt,
+};
 
 pub use board::MTU;
 
@@ -151,4 +154,38 @@ pub fn finish(ok: bool) -> ! {
     board::report(b"peak stack: ", board::stack_used() as u64);
     board::print(if ok { b"PASS\n" } else { b"FAIL\n" });
     board::exit(if ok { 0 } else { 1 })
+}
+
+/// The adder service of eProsima's examples (what the host's `request_adder` and `reply_adder` use); the board's
+/// requester and replier must name it alike.
+pub const ADDER_SERVICE: ServiceNames<'static> = ServiceNames {
+    service_name: "service_name",
+    request_type: "request_type",
+    reply_type: "reply_type",
+    request_topic_name: "service_nameRequest",
+    reply_topic_name: "service_nameReply",
+};
+
+/// Creates participant 1 named `name` and a service endpoint (`endpoint`, made by `create_endpoint` under that
+/// participant), then asks for everything the endpoint receives on `input`; whether all of it went through.
+pub fn create_service_endpoint<C: xrce_client::Callbacks, const OBE: usize, const IBE: usize>(
+    session: &mut Client<C, OBE, IBE>,
+    out: StreamId,
+    input: StreamId,
+    mode: u8,
+    name: &str,
+    endpoint: ObjectId,
+    mut create_endpoint: impl FnMut(&mut Client<C, OBE, IBE>, ObjectId) -> Result<u16, Error>,
+) -> bool {
+    let participant = object_id(1, ObjectKind::Participant);
+    let requests = [
+        buffer(session, |s| s.buffer_create_participant_bin(out, participant, 0, Some(name), mode)),
+        buffer(session, |s| create_endpoint(s, participant)),
+    ];
+    let [Some(a), Some(b)] = requests else { return false };
+    if !created(session, &[a, b], 5) {
+        return false;
+    }
+    let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
+    buffer(session, |s| s.buffer_request_data(out, endpoint, input, Some(&control))).is_some()
 }

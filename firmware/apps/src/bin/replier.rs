@@ -13,8 +13,7 @@ use core::ptr::addr_of_mut;
 
 use xrce_board as board;
 use xrce_client::{
-    object_id, Callbacks, DeliveryControl, ObjectId, ObjectKind, Outputs, QoS, SampleIdentity, ServiceNames, StreamId,
-    WriteAccessExt, REPLACE, REUSE,
+    object_id, Callbacks, ObjectId, ObjectKind, Outputs, QoS, SampleIdentity, StreamId, WriteAccessExt, REPLACE, REUSE,
 };
 use xrce_firmware::{self as fw, Client, Liveness, HISTORY, MTU};
 
@@ -57,28 +56,12 @@ static mut RELIABLE_OUT: [u8; MTU * HISTORY] = [0; MTU * HISTORY];
 static mut RELIABLE_IN: [u8; MTU * HISTORY] = [0; MTU * HISTORY];
 static mut SESSION: MaybeUninit<Replier> = MaybeUninit::uninit();
 
-const SERVICE: ServiceNames<'static> = ServiceNames {
-    service_name: "service_name",
-    request_type: "request_type",
-    reply_type: "reply_type",
-    request_topic_name: "service_nameRequest",
-    reply_topic_name: "service_nameReply",
-};
-
 /// Creates the participant and the replier, and asks for every request on `input`.
 fn create(session: &mut Replier, out: StreamId, input: StreamId, mode: u8) -> bool {
-    let participant = object_id(1, ObjectKind::Participant);
     let replier = object_id(1, ObjectKind::Replier);
-    let requests = [
-        fw::buffer(session, |s| s.buffer_create_participant_bin(out, participant, 0, Some("firmware_replier"), mode)),
-        fw::buffer(session, |s| s.buffer_create_replier_bin(out, replier, participant, &SERVICE, QoS::default(), mode)),
-    ];
-    let [Some(a), Some(b)] = requests else { return false };
-    if !fw::created(session, &[a, b], 5) {
-        return false;
-    }
-    let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
-    fw::buffer(session, |s| s.buffer_request_data(out, replier, input, Some(&control))).is_some()
+    fw::create_service_endpoint(session, out, input, mode, "firmware_replier", replier, |s, participant| {
+        s.buffer_create_replier_bin(out, replier, participant, &fw::ADDER_SERVICE, QoS::default(), mode)
+    })
 }
 
 #[export_name = "main"]

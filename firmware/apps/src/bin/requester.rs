@@ -11,10 +11,7 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use xrce_board as board;
-use xrce_client::{
-    object_id, Callbacks, DeliveryControl, ObjectId, ObjectKind, Outputs, QoS, ServiceNames, StreamId, WriteAccessExt,
-    REPLACE, REUSE,
-};
+use xrce_client::{object_id, Callbacks, ObjectId, ObjectKind, Outputs, QoS, StreamId, WriteAccessExt, REPLACE, REUSE};
 use xrce_firmware::{self as fw, Client, Liveness, HISTORY, MTU};
 
 /// The reply awaited, and what came.
@@ -53,30 +50,12 @@ static mut RELIABLE_OUT: [u8; MTU * HISTORY] = [0; MTU * HISTORY];
 static mut RELIABLE_IN: [u8; MTU * HISTORY] = [0; MTU * HISTORY];
 static mut SESSION: MaybeUninit<Requester> = MaybeUninit::uninit();
 
-const SERVICE: ServiceNames<'static> = ServiceNames {
-    service_name: "service_name",
-    request_type: "request_type",
-    reply_type: "reply_type",
-    request_topic_name: "service_nameRequest",
-    reply_topic_name: "service_nameReply",
-};
-
 /// Creates the participant and the requester, and asks for every reply on `input`.
 fn create(session: &mut Requester, out: StreamId, input: StreamId, mode: u8) -> bool {
-    let participant = object_id(1, ObjectKind::Participant);
     let requester = object_id(1, ObjectKind::Requester);
-    let requests = [
-        fw::buffer(session, |s| s.buffer_create_participant_bin(out, participant, 0, Some("firmware_requester"), mode)),
-        fw::buffer(session, |s| {
-            s.buffer_create_requester_bin(out, requester, participant, &SERVICE, QoS::default(), mode)
-        }),
-    ];
-    let [Some(a), Some(b)] = requests else { return false };
-    if !fw::created(session, &[a, b], 5) {
-        return false;
-    }
-    let control = DeliveryControl { max_samples: DeliveryControl::UNLIMITED, ..Default::default() };
-    fw::buffer(session, |s| s.buffer_request_data(out, requester, input, Some(&control))).is_some()
+    fw::create_service_endpoint(session, out, input, mode, "firmware_requester", requester, |s, participant| {
+        s.buffer_create_requester_bin(out, requester, participant, &fw::ADDER_SERVICE, QoS::default(), mode)
+    })
 }
 
 #[export_name = "main"]
