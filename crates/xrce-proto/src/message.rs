@@ -3,7 +3,7 @@
 
 use crate::cdr::{padding, Endianness, Error, Result, Writer};
 use crate::header::MessageHeader;
-use crate::submessage::{id, Submessage, SubmessageHeader};
+use crate::submessage::{id, FromAgent, Submessage, SubmessageHeader};
 use crate::view::SubmessageId;
 
 /// Parses the header of `buf` and returns it with an iterator over the submessages that follow.
@@ -36,9 +36,9 @@ impl<'a> RawSubmessage<'a> {
         Submessage::decode(self.header, self.message, self.start, self.end)
     }
 
-    /// Decodes the payload as a client does ([`Submessage::decode_sent_by_agent`]).
-    pub fn decode_sent_by_agent(&self) -> Result<Submessage<'a>> {
-        Submessage::decode_sent_by_agent(self.header, self.message, self.start, self.end)
+    /// Decodes what a client reads of the payload ([`FromAgent`]).
+    pub fn decode_from_agent(&self) -> Result<FromAgent<'a>> {
+        FromAgent::decode(self.header, self.message, self.start, self.end)
     }
 }
 

@@ -26,7 +26,7 @@ use outputs::FIRST_REQUEST_ID;
 use xrce_proto::cdr::{Endianness, Seq};
 use xrce_proto::message::{encode_single, Submessages};
 use xrce_proto::object::ClientRepresentation;
-use xrce_proto::submessage::{info_mask, AckNack, ActivityInfo, DataFormat, GetInfo, Heartbeat, Info};
+use xrce_proto::submessage::{info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat, Info};
 use xrce_proto::{
     is_session_none, session_none_for, BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId,
     ObjectKind, RequestId, ResultStatus, SampleIdentity, StatusCode, StreamId, StreamKind, Submessage, Time,
@@ -949,8 +949,8 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
 
 /// The implementation status of the INFO `msg` starts with, if it does.
 fn first_info(msg: &[u8], hs: usize) -> Option<u8> {
-    match Submessages::new(msg, hs).next()?.ok()?.decode_sent_by_agent().ok()? {
-        Submessage::Info(info) => Some(info.reply.result.implementation_status),
+    match Submessages::new(msg, hs).next()?.ok()?.decode_from_agent().ok()? {
+        FromAgent::Info { reply, .. } => Some(reply.result.implementation_status),
         _ => None,
     }
 }
@@ -974,17 +974,17 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
 ) {
     for raw in Submessages::new(msg, start) {
         let Ok(raw) = raw else { return };
-        let Ok(sub) = raw.decode_sent_by_agent() else { return };
+        let Ok(sub) = raw.decode_from_agent() else { return };
         match sub {
-            Submessage::StatusAgent(s) if stream == StreamId::NONE && st.state == SessionState::Creating => {
+            FromAgent::StatusAgent(result) if stream == StreamId::NONE && st.state == SessionState::Creating => {
                 st.session_retry = None;
                 let recreated = st.live.take_recreating();
-                if RECONNECT && recreated && s.result.status == StatusCode::OK_MATCHED {
+                if RECONNECT && recreated && result.status == StatusCode::OK_MATCHED {
                     // Our agent still held the session and kept its streams: go on where we were.
                     st.state = SessionState::Established;
                     st.live.heard(now);
                     st.live.push(SessionEvent::Restored { recreated: false });
-                } else if s.result.status == StatusCode::OK {
+                } else if result.status == StatusCode::OK {
                     st.state = SessionState::Established;
                     st.live.heard(now);
                     st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
@@ -1002,26 +1002,25 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                     st.state = SessionState::Reconnecting;
                     st.live.start_attempts(now);
                 } else {
-                    st.state = SessionState::Refused(s.result.status.0);
+                    st.state = SessionState::Refused(result.status.0);
                 }
             }
-            Submessage::Status(reply) if stream == StreamId::NONE => {
+            FromAgent::Status(reply) if stream == StreamId::NONE => {
                 let deleted = reply.related_request.request_id == RequestId::DELETE_SESSION;
                 if deleted && st.state == SessionState::Deleting {
                     st.state = SessionState::Deleted;
                     st.session_retry = None;
                 }
             }
-            Submessage::Status(reply) => {
+            FromAgent::Status(reply) => {
                 let request = reply.related_request.request_id.0;
                 let status = reply.result.status.0;
                 cb.on_status(&mut st.outputs(), reply.related_request.object_id, request, status);
                 cb.on_request_status(request, status);
             }
-            Submessage::Info(info) => {
-                let available =
-                    matches!(info.activity, Some(ActivityInfo::Agent { availability, .. }) if availability > 0);
-                let in_session = info.reply.result.implementation_status != 0;
+            FromAgent::Info { reply, availability } => {
+                let available = availability.is_some_and(|a| a > 0);
+                let in_session = reply.result.implementation_status != 0;
                 if available {
                     cb.on_pong(in_session);
                 }
@@ -1030,8 +1029,8 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                     st.ping_retry = None;
                 }
             }
-            Submessage::GetInfo(get) => st.info_reply = Some(get.request),
-            Submessage::Data(d) => {
+            FromAgent::GetInfo(get) => st.info_reply = Some(get.request),
+            FromAgent::Data(d) => {
                 let request = d.request.request_id.0;
                 let object = d.request.object_id;
                 if d.format == DataFormat::DATA {
@@ -1052,20 +1051,20 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                 }
                 cb.on_request_status(request, StatusCode::OK.0);
             }
-            Submessage::AckNack(a) => {
+            FromAgent::AckNack(a) => {
                 let s = StreamId(a.stream_id);
                 if let (StreamKind::Reliable, Some(Some(out))) = (s.kind(), st.out_rel.get_mut(usize::from(s.index())))
                 {
                     out.on_acknack(a.first_unacked_seq_num, a.bitmap(), now);
                 }
             }
-            Submessage::Heartbeat(h) => {
+            FromAgent::Heartbeat(h) => {
                 let s = StreamId(h.stream_id);
                 if let (StreamKind::Reliable, Some(Some(inp))) = (s.kind(), in_rel.get_mut(usize::from(s.index()))) {
                     inp.on_heartbeat(h.last_unacked_seq_nr);
                 }
             }
-            Submessage::TimestampReply(t) => {
+            FromAgent::TimestampReply(t) => {
                 let sample = TimeSample {
                     current: now,
                     transmit: t.transmit_timestamp.as_nanos(),

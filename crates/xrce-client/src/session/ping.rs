@@ -5,7 +5,7 @@ use crate::error::Result;
 use crate::transport::Transport;
 use xrce_proto::cdr::Endianness;
 use xrce_proto::message::{encode_single, parse};
-use xrce_proto::submessage::{info_mask, ActivityInfo, GetInfo, Info};
+use xrce_proto::submessage::{info_mask, FromAgent, GetInfo, Info};
 use xrce_proto::{
     BaseObjectRequest, ClientKey, MessageHeader, ObjectId, RequestId, StreamId, Submessage, SESSION_ID_NONE_WITHOUT_KEY,
 };
@@ -31,10 +31,11 @@ pub fn parse_info(msg: &[u8]) -> Option<Info<'_>> {
 }
 
 /// Whether `msg` is a pong: its first submessage an INFO whose activity says the agent is available (the
-/// header is not checked, as in the C client).
+/// header is not checked, as in the C client). Read with the client's lean decoder ([`FromAgent`]), so a
+/// firmware that pings carries no decoder of the agent's configuration or locators.
 pub fn is_pong(msg: &[u8]) -> bool {
-    parse_info(msg)
-        .is_some_and(|i| matches!(i.activity, Some(ActivityInfo::Agent { availability, .. }) if availability > 0))
+    let first = parse(msg).ok().and_then(|(_, mut subs)| subs.next()?.ok()?.decode_from_agent().ok());
+    matches!(first, Some(FromAgent::Info { availability: Some(a), .. }) if a > 0)
 }
 
 /// `uxr_ping_agent`: one GET_INFO, then waits up to `timeout_ms` for the pong.

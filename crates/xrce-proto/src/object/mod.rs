@@ -272,31 +272,24 @@ impl<'a> ObjectVariant<'a> {
 
 impl<'a> Decode<'a> for ObjectVariant<'a> {
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        Self::decode_kinds::<true>(r)
+        Self::decode_kinds(r)
     }
 }
 
 impl<'a> ObjectVariant<'a> {
-    /// Decodes only the variants an agent reports to a client about itself or the client (AGENT, CLIENT: the
-    /// configuration in an INFO answering GET_INFO); any other kind is [`Error::InvalidDiscriminator`]. A
-    /// client's build then carries none of the entity representations' decoders.
-    pub fn decode_agent_or_client(r: &mut Reader<'a>) -> Result<Self> {
-        Self::decode_kinds::<false>(r)
-    }
-
-    /// Every kind (`ENTITIES`), or AGENT and CLIENT only.
-    fn decode_kinds<const ENTITIES: bool>(r: &mut Reader<'a>) -> Result<Self> {
+    /// Every kind.
+    fn decode_kinds(r: &mut Reader<'a>) -> Result<Self> {
         let kind_byte = r.read_u8()?;
         let kind = ObjectKind::from_nibble(kind_byte);
         if kind_byte > 0x0F {
             return Err(Error::InvalidDiscriminator(kind_byte));
         }
         let variant = match kind {
-            ObjectKind::Participant if ENTITIES => {
+            ObjectKind::Participant => {
                 let representation = Representation::decode_allowed(r, REPRESENTATION_3)?;
                 Self::Entity(EntityVariant::participant(representation, r.read_i16()?))
             }
-            ObjectKind::Publisher | ObjectKind::Subscriber if ENTITIES => {
+            ObjectKind::Publisher | ObjectKind::Subscriber => {
                 let representation = Representation::decode_allowed(r, BIN_AND_XML)?;
                 Self::Entity(EntityVariant::child(kind, representation, r.read()?))
             }
@@ -304,13 +297,11 @@ impl<'a> ObjectVariant<'a> {
             | ObjectKind::DataWriter
             | ObjectKind::DataReader
             | ObjectKind::Requester
-            | ObjectKind::Replier
-                if ENTITIES =>
-            {
+            | ObjectKind::Replier => {
                 let representation = Representation::decode_allowed(r, REPRESENTATION_3)?;
                 Self::Entity(EntityVariant::child(kind, representation, r.read()?))
             }
-            ObjectKind::Type | ObjectKind::QosProfile | ObjectKind::Application if ENTITIES => {
+            ObjectKind::Type | ObjectKind::QosProfile | ObjectKind::Application => {
                 Self::Profile { kind, representation: Representation::decode_allowed(r, REF_AND_XML)? }
             }
             ObjectKind::Agent => Self::Agent(r.read()?),

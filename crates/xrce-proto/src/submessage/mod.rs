@@ -1,12 +1,24 @@
 //! Submessage header, ids and the decoded submessages (spec §3, §4, §6).
 
+mod from_agent;
 mod payload;
 
+pub use from_agent::FromAgent;
 pub use payload::*;
 
 use crate::cdr::{Decode, Encode, Endianness, Error, Reader, Result, Writer};
 use crate::object::{ClientRepresentation, ObjectVariant};
 use crate::types::{BaseObjectReply, BaseObjectRequest, Time};
+
+/// A reader of the payload `buf[start..end]` of a submessage with header `header`, its alignment origin the
+/// first byte of the message `buf`.
+fn payload_reader(header: SubmessageHeader, buf: &[u8], start: usize, end: usize) -> Result<Reader<'_>> {
+    let bounded = buf.get(..end).ok_or(Error::Truncated)?;
+    if start > end {
+        return Err(Error::Truncated);
+    }
+    Ok(Reader::with_origin(bounded, start, 0, header.endianness()))
+}
 
 /// Submessage ids.
 pub mod id {
@@ -175,59 +187,35 @@ impl<'a> Submessage<'a> {
     /// `buf` is the whole message: CDR alignment is relative to its first byte (spec §1.2).
     /// Bytes after what the submessage's type consumes are ignored.
     pub fn decode(header: SubmessageHeader, buf: &'a [u8], start: usize, end: usize) -> Result<Self> {
-        Self::decode_kinds::<true>(header, buf, start, end)
-    }
-
-    /// As [`decode`](Self::decode), for a client: only the kinds an agent sends are decoded; requests only a
-    /// client sends (CREATE_CLIENT, CREATE, DELETE, WRITE_DATA, READ_DATA, TIMESTAMP) come back as
-    /// [`Unknown`](Self::Unknown), and the configuration an INFO carries is decoded only for the agent or a
-    /// client ([`Info::decode_sent_to_client`]). The entity representations' decoders (~4 KB of firmware
-    /// `.text`) then stay out of a client's build.
-    pub fn decode_sent_by_agent(header: SubmessageHeader, buf: &'a [u8], start: usize, end: usize) -> Result<Self> {
-        Self::decode_kinds::<false>(header, buf, start, end)
-    }
-
-    /// [`decode`](Self::decode) of every kind (`CLIENT_REQUESTS`) or of those an agent sends.
-    fn decode_kinds<const CLIENT_REQUESTS: bool>(
-        header: SubmessageHeader,
-        buf: &'a [u8],
-        start: usize,
-        end: usize,
-    ) -> Result<Self> {
-        let bounded = buf.get(..end).ok_or(Error::Truncated)?;
-        if start > end {
-            return Err(Error::Truncated);
-        }
-        let mut r = Reader::with_origin(bounded, start, 0, header.endianness());
+        let mut r = payload_reader(header, buf, start, end)?;
         let flags = header.flags;
         Ok(match header.id {
-            id::CREATE_CLIENT if CLIENT_REQUESTS => Self::CreateClient(r.read()?),
-            id::CREATE if CLIENT_REQUESTS => Self::Create(Create {
+            id::CREATE_CLIENT => Self::CreateClient(r.read()?),
+            id::CREATE => Self::Create(Create {
                 request: r.read()?,
                 mode: CreationMode::from_flags(flags),
                 variant: ObjectVariant::decode(&mut r)?,
             }),
             id::GET_INFO => Self::GetInfo(r.read()?),
-            id::DELETE if CLIENT_REQUESTS => Self::Delete(r.read()?),
+            id::DELETE => Self::Delete(r.read()?),
             id::STATUS_AGENT => Self::StatusAgent(r.read()?),
             id::STATUS => Self::Status(r.read()?),
-            id::INFO if CLIENT_REQUESTS => Self::Info(r.read()?),
-            id::INFO => Self::Info(Info::decode_sent_to_client(&mut r)?),
+            id::INFO => Self::Info(r.read()?),
             id::DATA => Self::Data(Self::data_payload(&mut r, flags)?),
-            id::WRITE_DATA if CLIENT_REQUESTS => Self::WriteData(Self::data_payload(&mut r, flags)?),
-            id::READ_DATA if CLIENT_REQUESTS => Self::ReadData(r.read()?),
+            id::WRITE_DATA => Self::WriteData(Self::data_payload(&mut r, flags)?),
+            id::READ_DATA => Self::ReadData(r.read()?),
             id::ACKNACK => Self::AckNack(r.read()?),
             id::HEARTBEAT => Self::Heartbeat(r.read()?),
             id::RESET => Self::Reset,
             id::FRAGMENT => Self::Fragment { last: flags & flag::LAST_FRAGMENT != 0, data: r.take_rest() },
-            id::TIMESTAMP if CLIENT_REQUESTS => Self::Timestamp(r.read()?),
+            id::TIMESTAMP => Self::Timestamp(r.read()?),
             id::TIMESTAMP_REPLY => Self::TimestampReply(r.read()?),
             other => Self::Unknown { id: other, flags, payload: r.take_rest() },
         })
     }
 
     /// The payload of a DATA or WRITE_DATA submessage with `flags`, read from `r`.
-    fn data_payload(r: &mut Reader<'a>, flags: u8) -> Result<DataPayload<'a>> {
+    pub(super) fn data_payload(r: &mut Reader<'a>, flags: u8) -> Result<DataPayload<'a>> {
         Ok(DataPayload { request: r.read()?, format: DataFormat::from_flags(flags), data: r.take_rest() })
     }
 

@@ -150,24 +150,9 @@ pub struct Info<'a> {
     pub activity: Option<ActivityInfo<'a>>,
 }
 
-impl<'a> Info<'a> {
-    /// Decodes an INFO as a client: a configuration is decoded only for the agent or a client
-    /// ([`ObjectVariant::decode_agent_or_client`]), what a client may ask about; other kinds are an error.
-    pub fn decode_sent_to_client(r: &mut Reader<'a>) -> Result<Self> {
-        Self::decode_with(r, ObjectVariant::decode_agent_or_client)
-    }
-
-    fn decode_with(
-        r: &mut Reader<'a>,
-        config: impl FnOnce(&mut Reader<'a>) -> Result<ObjectVariant<'a>>,
-    ) -> Result<Self> {
-        Ok(Self { reply: r.read()?, config: r.read_optional(config)?, activity: r.read_optional(|r| r.read())? })
-    }
-}
-
 impl<'a> Decode<'a> for Info<'a> {
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        Self::decode_with(r, |r| r.read())
+        Ok(Self { reply: r.read()?, config: r.read_optional(|r| r.read())?, activity: r.read_optional(|r| r.read())? })
     }
 }
 
