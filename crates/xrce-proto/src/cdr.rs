@@ -612,10 +612,23 @@ impl<'a, T: Decode<'a> + MinSize> Decode<'a> for Seq<'a, T> {
 
 impl<'a, T: Decode<'a> + Encode + Clone> Encode for Seq<'a, T> {
     fn encode(&self, w: &mut Writer<'_>) {
-        w.write_seq_len(self.len());
-        for item in self.iter() {
-            item.encode(w);
+        match self {
+            Seq::Items(items) => write_seq(w, items),
+            Seq::Wire { .. } => {
+                w.write_seq_len(self.len());
+                for item in self.iter() {
+                    item.encode(w);
+                }
+            }
         }
+    }
+}
+
+/// Writes `items` as a CDR `sequence<T>`, linking no decoder of `T` (as encoding a [`Seq`] does).
+pub fn write_seq<T: Encode>(w: &mut Writer<'_>, items: &[T]) {
+    w.write_seq_len(items.len());
+    for item in items {
+        item.encode(w);
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::cdr::{padding, Endianness, Error, Result, Writer};
 use crate::header::MessageHeader;
-use crate::submessage::{id, FromAgent, Submessage, SubmessageHeader};
+use crate::submessage::{id, write_submessage, FromAgent, Submessage, SubmessageHeader};
 use crate::view::SubmessageId;
 
 /// Parses the header of `buf` and returns it with an iterator over the submessages that follow.
@@ -175,6 +175,19 @@ impl<'b> MessageBuilder<'b> {
     pub const fn finish(self) -> usize {
         self.len
     }
+}
+
+/// Encodes a message made of `header` and one little-endian submessage `id` whose payload `payload` writes
+/// into `out`; returns its length. Links only that payload's encoder ([`write_submessage`]).
+pub fn encode_single_kind(
+    out: &mut [u8],
+    header: &MessageHeader,
+    id: u8,
+    payload: impl FnOnce(&mut Writer<'_>),
+) -> Result<usize> {
+    let mut b = MessageBuilder::new(out, header)?;
+    b.push_with(Endianness::Little, |w| write_submessage(w, id, 0, payload))?;
+    Ok(b.finish())
 }
 
 /// Encodes a message made of `header` and one submessage into `out`; returns its length.

@@ -23,13 +23,13 @@ use crate::error::{Error, Result};
 use crate::stream::input_reliable_ready as ready;
 use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
 use outputs::FIRST_REQUEST_ID;
-use xrce_proto::cdr::{Endianness, Seq};
-use xrce_proto::message::{encode_single, Submessages};
+use xrce_proto::cdr::{Encode, Writer};
+use xrce_proto::message::{encode_single_kind, Submessages};
 use xrce_proto::object::ClientRepresentation;
-use xrce_proto::submessage::{info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat, Info};
+use xrce_proto::submessage::{id, info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat};
 use xrce_proto::{
     is_session_none, session_none_for, BaseObjectReply, BaseObjectRequest, ClientKey, MessageHeader, ObjectId,
-    ObjectKind, RequestId, ResultStatus, SampleIdentity, StatusCode, StreamId, StreamKind, Submessage, Time,
+    ObjectKind, RequestId, ResultStatus, SampleIdentity, StatusCode, StreamId, StreamKind, Time,
 };
 
 /// One millisecond in the core's time unit.
@@ -733,7 +733,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 (SessionState::Creating, Some(true)) => {
                     let header = MessageHeader::new(session_none_for(st.session_id), StreamId::NONE, 0, st.key);
                     let mtu = ClientRepresentation::mtu_for(st.mtu);
-                    let mut rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                    let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
                     #[cfg(feature = "psk")]
                     let token =
                         st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
@@ -752,15 +752,16 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                             xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
                         add_property(&mut props, &mut n, auth);
                     }
-                    if n > 0 {
-                        rep.properties = Some(Seq::Items(props.get(..n).unwrap_or(&[])));
-                    }
-                    return encode_single(out, &header, &Submessage::CreateClient(rep), Endianness::Little).ok();
+                    let props = props.get(..n).unwrap_or(&[]);
+                    return encode_single_kind(out, &header, id::CREATE_CLIENT, |w| {
+                        rep.encode_with_properties(w, props)
+                    })
+                    .ok();
                 }
                 (SessionState::Deleting, Some(true)) => {
                     let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
                     let header = st.header(StreamId::NONE);
-                    return encode_single(out, &header, &Submessage::Delete(req), Endianness::Little).ok();
+                    return encode_single_kind(out, &header, id::DELETE, |w| req.encode(w)).ok();
                 }
                 (SessionState::Creating, None) if st.live.recreating() => {
                     // The agent went again before answering: back to the attempts.
@@ -791,25 +792,27 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         let header = st.header(StreamId::NONE);
         if st.live.probe_due(now) {
-            return encode_single(out, &header, &Submessage::GetInfo(liveness_probe()), Endianness::Little).ok();
+            return encode_single_kind(out, &header, id::GET_INFO, |w| liveness_probe().encode(w)).ok();
         }
         if let Some(request) = st.info_reply.take() {
-            let info = Info {
-                reply: BaseObjectReply {
-                    related_request: request,
-                    result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
-                },
-                config: None,
-                activity: None,
+            let reply = BaseObjectReply {
+                related_request: request,
+                result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
             };
-            return encode_single(out, &header, &Submessage::Info(info), Endianness::Little).ok();
+            // An INFO with neither configuration nor activity: the reply and two absent optionals.
+            let info = |w: &mut Writer<'_>| {
+                reply.encode(w);
+                w.write_bool(false);
+                w.write_bool(false);
+            };
+            return encode_single_kind(out, &header, id::INFO, info).ok();
         }
         if let Some(retry) = st.ping_retry.as_mut() {
             match retry.due(now) {
                 Some(true) => {
                     let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
                     let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
-                    return encode_single(out, &header, &Submessage::GetInfo(get), Endianness::Little).ok();
+                    return encode_single_kind(out, &header, id::GET_INFO, |w| get.encode(w)).ok();
                 }
                 Some(false) => {}
                 None => {
@@ -820,13 +823,13 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         if st.sync_pending {
             st.sync_pending = false;
-            return encode_single(out, &header, &Submessage::Timestamp(Time::from_nanos(now)), Endianness::Little).ok();
+            return encode_single_kind(out, &header, id::TIMESTAMP, |w| Time::from_nanos(now).encode(w)).ok();
         }
         for (i, s) in self.in_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
             let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
             let ack = AckNack::from_bits(s.acknack(), stream_id);
-            return encode_single(out, &header, &Submessage::AckNack(ack), Endianness::Little).ok();
+            return encode_single_kind(out, &header, id::ACKNACK, |w| ack.encode(w)).ok();
         }
         for (i, s) in st.out_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut() else { continue };
@@ -836,7 +839,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             }
             if let Some((first, last)) = s.poll_heartbeat(now) {
                 let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
-                return encode_single(out, &header, &Submessage::Heartbeat(hb), Endianness::Little).ok();
+                return encode_single_kind(out, &header, id::HEARTBEAT, |w| hb.encode(w)).ok();
             }
         }
         for (i, s) in st.out_be.iter_mut().enumerate() {
@@ -939,7 +942,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);
-        return encode_single(out, &header, &Submessage::GetInfo(liveness_probe()), Endianness::Little).ok();
+        return encode_single_kind(out, &header, id::GET_INFO, |w| liveness_probe().encode(w)).ok();
     }
     if st.live.take_second_ping() {
         return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);

@@ -16,8 +16,7 @@ use xrce_proto::object::{
 use xrce_proto::submessage::DataDeliveryControl;
 use xrce_proto::view::{self, RequestHead, StringCreate, SubmessageId};
 use xrce_proto::{
-    BaseObjectRequest, ObjectId, ObjectVariant, Representation, RequestId, SampleIdentity, StreamId, StreamKind,
-    SubmessageHeader,
+    BaseObjectRequest, ObjectId, Representation, RequestId, SampleIdentity, StreamId, StreamKind, SubmessageHeader,
 };
 
 /// First request id the C client hands out (1–9 are reserved).
@@ -149,10 +148,9 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 // Encoded in place, in two passes: a writer over no buffer measures the CREATE payload (CDR
                 // alignment counted from the payload start, the variant after the 4-byte request), then the
                 // same encoding goes straight into the reserved room of the stream. No scratch buffer.
-                let variant =
-                    ObjectVariant::Entity(EntityVariant { kind, representation: Representation::Binary(blob), link });
+                let variant = EntityVariant { kind, representation: Representation::Binary(blob), link };
                 let mut measure = Writer::with_origin(&mut [], BaseObjectRequest::SIZE, 0, Endianness::Little);
-                measure.write(&variant);
+                variant.encode_as_object(&mut measure);
                 let payload = match measure.finish() {
                     Ok(n) | Err(xrce_proto::cdr::Error::BufferTooSmall { needed: n }) => n,
                     Err(e) => return Err(Error::Encode(e)),
@@ -166,7 +164,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 *prefix = head;
                 // CDR alignment counts from the payload, after the submessage header.
                 let mut w = Writer::with_origin(region, RequestHead::SIZE, SubmessageHeader::SIZE, Endianness::Little);
-                w.write(&variant);
+                variant.encode_as_object(&mut w);
                 w.finish().map(drop).map_err(Error::Encode)
             }
         })

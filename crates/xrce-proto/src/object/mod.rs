@@ -187,12 +187,25 @@ impl<'a> Decode<'a> for ClientRepresentation<'a> {
 
 impl Encode for ClientRepresentation<'_> {
     fn encode(&self, w: &mut Writer<'_>) {
+        self.encode_with(w, |w| w.write_optional(self.properties.as_ref(), |w, p| p.encode(w)));
+    }
+}
+
+impl ClientRepresentation<'_> {
+    /// Encodes the representation with `properties` in place of its own: how a client sends its CREATE_CLIENT,
+    /// so its build links no decoder (a decoded [`Seq`] re-encodes by decoding its elements).
+    pub fn encode_with_properties(&self, w: &mut Writer<'_>, properties: &[Property<'_>]) {
+        let items = (!properties.is_empty()).then_some(properties);
+        self.encode_with(w, |w| w.write_optional(items.as_ref(), |w, p| crate::cdr::write_seq(w, p)));
+    }
+
+    fn encode_with(&self, w: &mut Writer<'_>, properties: impl FnOnce(&mut Writer<'_>)) {
         w.write_bytes(&self.xrce_cookie);
         w.write_bytes(&self.xrce_version);
         w.write_bytes(&self.xrce_vendor_id);
         self.client_key.encode(w);
         w.write_u8(self.session_id);
-        w.write_optional(self.properties.as_ref(), |w, p| p.encode(w));
+        properties(w);
         w.write_u16(self.mtu);
     }
 }
@@ -316,16 +329,28 @@ impl Encode for ObjectVariant<'_> {
     fn encode(&self, w: &mut Writer<'_>) {
         w.write_u8(self.kind() as u8);
         match self {
-            Self::Entity(e) => {
-                e.representation.encode(w);
-                match e.link {
-                    EntityLink::Domain(d) => w.write_i16(d),
-                    EntityLink::Parent(id) => id.encode(w),
-                }
-            }
+            Self::Entity(e) => e.encode_body(w),
             Self::Profile { representation, .. } => representation.encode(w),
             Self::Agent(a) => a.encode(w),
             Self::Client(c) => c.encode(w),
+        }
+    }
+}
+
+impl EntityVariant<'_> {
+    /// Encodes the entity as an `ObjectVariant`: its kind byte, then its body. A client creating entities
+    /// encodes them this way, without [`ObjectVariant`]'s encoders of the agent's and a client's
+    /// representations.
+    pub fn encode_as_object(&self, w: &mut Writer<'_>) {
+        w.write_u8(self.kind as u8);
+        self.encode_body(w);
+    }
+
+    fn encode_body(&self, w: &mut Writer<'_>) {
+        self.representation.encode(w);
+        match self.link {
+            EntityLink::Domain(d) => w.write_i16(d),
+            EntityLink::Parent(id) => id.encode(w),
         }
     }
 }

@@ -250,14 +250,21 @@ impl<'a> Submessage<'a> {
     /// Writes header and payload at the writer's position, which must be 4-aligned from the message start.
     /// The payload byte order is the writer's.
     pub fn encode(&self, w: &mut Writer<'_>) {
-        let header_at = w.position();
-        let flags = self.extra_flags() | w.endianness().flag();
-        w.write_bytes(&SubmessageHeader { id: self.id(), flags, length: 0 }.to_bytes());
-        let start = w.position();
-        self.encode_payload(w);
-        match u16::try_from(w.position() - start) {
-            Ok(len) => w.patch_u16_le(header_at + 2, len),
-            Err(_) => w.fail(Error::InvalidValue("submessage length")),
-        }
+        write_submessage(w, self.id(), self.extra_flags(), |w| self.encode_payload(w));
+    }
+}
+
+/// Writes a submessage `id` with `flags` (the byte order added) whose payload `payload` writes, at the writer's
+/// position (4-aligned by the caller). Writing one kind this way links only that kind's encoder, where
+/// [`Submessage::encode`] links every kind's: a client sends a handful of kinds.
+pub fn write_submessage(w: &mut Writer<'_>, id: u8, flags: u8, payload: impl FnOnce(&mut Writer<'_>)) {
+    let header_at = w.position();
+    let flags = flags | w.endianness().flag();
+    w.write_bytes(&SubmessageHeader { id, flags, length: 0 }.to_bytes());
+    let start = w.position();
+    payload(w);
+    match u16::try_from(w.position() - start) {
+        Ok(len) => w.patch_u16_le(header_at + 2, len),
+        Err(_) => w.fail(Error::InvalidValue("submessage length")),
     }
 }
