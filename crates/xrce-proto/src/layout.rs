@@ -134,10 +134,10 @@ impl<'a> DataSubmessage<'a> {
     /// Writes the submessage at the start of `out`; returns its length ([`Self::encoded_len`]).
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] when the payload does not fit one submessage, [`Error::BufferTooSmall`]
+    /// [`Error::TooLong`] when the payload does not fit one submessage, [`Error::BufferTooSmall`]
     /// with the size needed when `out` is shorter. Bytes of `out` may have been written either way.
     pub fn emit_into(&self, out: &mut [u8]) -> Result<usize> {
-        let head = self.head().to_bytes().ok_or(Error::InvalidValue("submessage length"))?;
+        let head = self.head().to_bytes().ok_or(Error::TooLong(crate::cdr::LengthField::Submessage))?;
         let mut w = Writer::new(out, Endianness::Little);
         w.write_bytes(&head);
         self.body.write(&mut w);
@@ -270,7 +270,7 @@ mod tests {
         assert!(fits.fits_one_submessage());
         let big = DataSubmessage::data(BaseObjectRequest::default(), SampleBody::Plain(&BIG));
         assert!(!big.fits_one_submessage());
-        assert_eq!(big.emit_into(&mut [0u8; 8]), Err(Error::InvalidValue("submessage length")));
+        assert_eq!(big.emit_into(&mut [0u8; 8]), Err(Error::TooLong(crate::cdr::LengthField::Submessage)));
     }
 
     /// An INFO with a datawriter's activity has a u64: its alignment depends on where the submessage sits.

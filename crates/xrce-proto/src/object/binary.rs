@@ -79,7 +79,7 @@ impl<'a> BinaryObject<'a> {
         let len = w.position() - start;
         match u32::try_from(len) {
             Ok(len) => w.patch_u32(length_at, len),
-            Err(_) => w.fail(Error::InvalidValue("binary representation length")),
+            Err(_) => w.fail(Error::TooLong(crate::cdr::LengthField::BinaryRepresentation)),
         }
     }
 }

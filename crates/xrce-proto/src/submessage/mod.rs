@@ -265,6 +265,6 @@ pub fn write_submessage(w: &mut Writer<'_>, id: u8, flags: u8, payload: impl FnO
     payload(w);
     match u16::try_from(w.position() - start) {
         Ok(len) => w.patch_u16_le(header_at + 2, len),
-        Err(_) => w.fail(Error::InvalidValue("submessage length")),
+        Err(_) => w.fail(Error::TooLong(crate::cdr::LengthField::Submessage)),
     }
 }
