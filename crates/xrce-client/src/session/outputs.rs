@@ -46,14 +46,6 @@ impl Prepared<'_> {
     }
 }
 
-/// How an entity is described in a CREATE.
-#[derive(Debug, Clone, Copy)]
-enum Repr<'r> {
-    Reference(&'r str),
-    Xml(&'r str),
-    Binary(BinaryObject<'r>),
-}
-
 fn mode_flags(mode: u8) -> u8 {
     mode & (REUSE | REPLACE)
 }
@@ -123,50 +115,62 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reserve_in(self.best_effort, self.reliable, stream, total)
     }
 
-    fn create(
+    /// CREATE of `object` described by XML (`xml`) or by a reference. Text and binary creations are separate
+    /// functions so a program creating only one way links only that encoder (~1 KB of firmware).
+    fn create_text(
         &mut self,
         stream: StreamId,
         object: ObjectId,
         link: EntityLink,
-        repr: Repr<'_>,
+        text: &str,
+        xml: bool,
+        mode: u8,
+    ) -> Result<u16> {
+        self.with_request(|out, request| {
+            let create = StringCreate {
+                request: BaseObjectRequest { request_id: RequestId(request), object_id: object },
+                mode: mode_flags(mode),
+                xml,
+                text_len: text.len(),
+                link,
+            };
+            let head = create.head().ok_or(Error::TooLarge)?;
+            out.write_parts(stream, &[&head, text.as_bytes(), create.tail().as_bytes()])
+        })
+    }
+
+    /// CREATE of `object` described by the binary representation `blob`.
+    fn create_binary(
+        &mut self,
+        stream: StreamId,
+        object: ObjectId,
+        link: EntityLink,
+        blob: BinaryObject<'_>,
         mode: u8,
     ) -> Result<u16> {
         let kind = object.kind();
-        self.with_request(|out, request| match repr {
-            Repr::Reference(s) | Repr::Xml(s) => {
-                let create = StringCreate {
-                    request: BaseObjectRequest { request_id: RequestId(request), object_id: object },
-                    mode: mode_flags(mode),
-                    xml: matches!(repr, Repr::Xml(_)),
-                    text_len: s.len(),
-                    link,
-                };
-                let head = create.head().ok_or(Error::TooLarge)?;
-                out.write_parts(stream, &[&head, s.as_bytes(), create.tail().as_bytes()])
-            }
-            Repr::Binary(blob) => {
-                // Encoded in place, in two passes: a writer over no buffer measures the CREATE payload (CDR
-                // alignment counted from the payload start, the variant after the 4-byte request), then the
-                // same encoding goes straight into the reserved room of the stream. No scratch buffer.
-                let variant = EntityVariant { kind, representation: Representation::Binary(blob), link };
-                let mut measure = Writer::with_origin(&mut [], BaseObjectRequest::SIZE, 0, Endianness::Little);
-                variant.encode_as_object(&mut measure);
-                let payload = match measure.finish() {
-                    Ok(n) | Err(xrce_proto::cdr::Error::BufferTooSmall { needed: n }) => n,
-                    Err(e) => return Err(Error::Encode(e)),
-                };
-                let body_len = payload.saturating_sub(BaseObjectRequest::SIZE);
-                let head = head(SubmessageId::Create, mode_flags(mode), request, object, body_len)?;
-                let region = out.reserve(stream, RequestHead::SIZE + body_len)?;
-                let Some((prefix, _)) = region.split_first_chunk_mut::<{ RequestHead::SIZE }>() else {
-                    return Err(Error::TooLarge);
-                };
-                *prefix = head;
-                // CDR alignment counts from the payload, after the submessage header.
-                let mut w = Writer::with_origin(region, RequestHead::SIZE, SubmessageHeader::SIZE, Endianness::Little);
-                variant.encode_as_object(&mut w);
-                w.finish().map(drop).map_err(Error::Encode)
-            }
+        self.with_request(|out, request| {
+            // Encoded in place, in two passes: a writer over no buffer measures the CREATE payload (CDR
+            // alignment counted from the payload start, the variant after the 4-byte request), then the
+            // same encoding goes straight into the reserved room of the stream. No scratch buffer.
+            let variant = EntityVariant { kind, representation: Representation::Binary(blob), link };
+            let mut measure = Writer::with_origin(&mut [], BaseObjectRequest::SIZE, 0, Endianness::Little);
+            variant.encode_as_object(&mut measure);
+            let payload = match measure.finish() {
+                Ok(n) | Err(xrce_proto::cdr::Error::BufferTooSmall { needed: n }) => n,
+                Err(e) => return Err(Error::Encode(e)),
+            };
+            let body_len = payload.saturating_sub(BaseObjectRequest::SIZE);
+            let head = head(SubmessageId::Create, mode_flags(mode), request, object, body_len)?;
+            let region = out.reserve(stream, RequestHead::SIZE + body_len)?;
+            let Some((prefix, _)) = region.split_first_chunk_mut::<{ RequestHead::SIZE }>() else {
+                return Err(Error::TooLarge);
+            };
+            *prefix = head;
+            // CDR alignment counts from the payload, after the submessage header.
+            let mut w = Writer::with_origin(region, RequestHead::SIZE, SubmessageHeader::SIZE, Endianness::Little);
+            variant.encode_as_object(&mut w);
+            w.finish().map(drop).map_err(Error::Encode)
         })
     }
 
@@ -181,7 +185,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Domain(domain as i16), xml, true, mode)
     }
 
     /// `uxr_buffer_create_topic_xml`.
@@ -193,7 +197,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
     }
 
     /// `uxr_buffer_create_publisher_xml`.
@@ -205,7 +209,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
     }
 
     /// `uxr_buffer_create_subscriber_xml`.
@@ -217,7 +221,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
     }
 
     /// `uxr_buffer_create_datawriter_xml`.
@@ -229,7 +233,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(publisher), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(publisher), xml, true, mode)
     }
 
     /// `uxr_buffer_create_datareader_xml`.
@@ -241,7 +245,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(subscriber), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(subscriber), xml, true, mode)
     }
 
     /// `uxr_buffer_create_requester_xml`.
@@ -253,7 +257,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
     }
 
     /// `uxr_buffer_create_replier_xml`.
@@ -265,7 +269,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         xml: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Xml(xml), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
     }
 
     // ---- entities by reference -------------------------------------------------------------------------
@@ -279,7 +283,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reference: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Reference(reference), mode)
+        self.create_text(stream, object, EntityLink::Domain(domain as i16), reference, false, mode)
     }
 
     /// `uxr_buffer_create_topic_ref`.
@@ -291,7 +295,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reference: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), reference, false, mode)
     }
 
     /// `uxr_buffer_create_datawriter_ref`.
@@ -303,7 +307,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reference: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(publisher), Repr::Reference(reference), mode)
+        self.create_text(stream, object, EntityLink::Parent(publisher), reference, false, mode)
     }
 
     /// `uxr_buffer_create_datareader_ref`.
@@ -315,7 +319,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reference: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(subscriber), Repr::Reference(reference), mode)
+        self.create_text(stream, object, EntityLink::Parent(subscriber), reference, false, mode)
     }
 
     /// `uxr_buffer_create_requester_ref`.
@@ -327,7 +331,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reference: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), reference, false, mode)
     }
 
     /// `uxr_buffer_create_replier_ref`.
@@ -339,7 +343,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         reference: &str,
         mode: u8,
     ) -> Result<u16> {
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Reference(reference), mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), reference, false, mode)
     }
 
     // ---- entities by binary ----------------------------------------------------------------------------
@@ -354,7 +358,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         mode: u8,
     ) -> Result<u16> {
         let blob = BinaryObject::Participant(ParticipantBinary { domain_reference: None, qos_profile_reference: name });
-        self.create(stream, object, EntityLink::Domain(domain as i16), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Domain(domain as i16), blob, mode)
     }
 
     /// `uxr_buffer_create_topic_bin`.
@@ -368,7 +372,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         mode: u8,
     ) -> Result<u16> {
         let blob = BinaryObject::Topic(TopicBinary { topic_name, type_reference: None, type_name: Some(type_name) });
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(participant), blob, mode)
     }
 
     /// `uxr_buffer_create_publisher_bin`: no name, no QoS (the agent and the C client disagree on its layout).
@@ -380,7 +384,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         mode: u8,
     ) -> Result<u16> {
         let blob = BinaryObject::Publisher(PubSubBinary::default());
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(participant), blob, mode)
     }
 
     /// `uxr_buffer_create_subscriber_bin`: no name, no QoS, as the C client.
@@ -392,7 +396,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         mode: u8,
     ) -> Result<u16> {
         let blob = BinaryObject::Subscriber(PubSubBinary::default());
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(participant), blob, mode)
     }
 
     /// `uxr_buffer_create_datawriter_bin`.
@@ -407,7 +411,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
     ) -> Result<u16> {
         let qos = Some(DataWriterQos { base: qos.endpoint(), ownership_strength: None });
         let blob = BinaryObject::DataWriter(DataWriterBinary { topic_id: topic, qos });
-        self.create(stream, object, EntityLink::Parent(publisher), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(publisher), blob, mode)
     }
 
     /// `uxr_buffer_create_datareader_bin`.
@@ -422,7 +426,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
     ) -> Result<u16> {
         let qos = Some(DataReaderQos { base: qos.endpoint(), timebasedfilter_msec: None, contentbased_filter: None });
         let blob = BinaryObject::DataReader(DataReaderBinary { topic_id: topic, qos });
-        self.create(stream, object, EntityLink::Parent(subscriber), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(subscriber), blob, mode)
     }
 
     /// `uxr_buffer_create_requester_bin`. The blob has no QoS field; `qos` is accepted for parity and unused,
@@ -438,7 +442,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         mode: u8,
     ) -> Result<u16> {
         let blob = BinaryObject::Requester(service.binary());
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(participant), blob, mode)
     }
 
     /// `uxr_buffer_create_replier_bin`; see [`buffer_create_requester_bin`](Self::buffer_create_requester_bin).
@@ -452,7 +456,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
         mode: u8,
     ) -> Result<u16> {
         let blob = BinaryObject::Replier(service.binary());
-        self.create(stream, object, EntityLink::Parent(participant), Repr::Binary(blob), mode)
+        self.create_binary(stream, object, EntityLink::Parent(participant), blob, mode)
     }
 
     // ---- deletion, read access -------------------------------------------------------------------------
