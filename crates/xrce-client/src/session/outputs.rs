@@ -116,13 +116,14 @@ impl<'s, 'a> Outputs<'s, 'a> {
     }
 
     /// CREATE of `object` described by XML (`xml`) or by a reference. Text and binary creations are separate
-    /// functions so a program creating only one way links only that encoder (~1 KB of firmware).
+    /// functions so a program creating only one way links only that encoder (~1 KB of firmware). The text is
+    /// bytes: the agent parses it, and the C library then hands C strings over without a UTF-8 check.
     fn create_text(
         &mut self,
         stream: StreamId,
         object: ObjectId,
         link: EntityLink,
-        text: &str,
+        text: &[u8],
         xml: bool,
         mode: u8,
     ) -> Result<u16> {
@@ -135,7 +136,7 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 link,
             };
             let head = create.head().ok_or(Error::TooLarge)?;
-            out.write_parts(stream, &[&head, text.as_bytes(), create.tail().as_bytes()])
+            out.write_parts(stream, &[&head, text, create.tail().as_bytes()])
         })
     }
 
@@ -182,10 +183,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         domain: u16,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Domain(domain as i16), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Domain(domain as i16), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_topic_xml`.
@@ -194,10 +195,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_publisher_xml`.
@@ -206,10 +207,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_subscriber_xml`.
@@ -218,10 +219,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_datawriter_xml`.
@@ -230,10 +231,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         publisher: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(publisher), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(publisher), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_datareader_xml`.
@@ -242,10 +243,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         subscriber: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(subscriber), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(subscriber), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_requester_xml`.
@@ -254,10 +255,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml.as_ref(), true, mode)
     }
 
     /// `uxr_buffer_create_replier_xml`.
@@ -266,10 +267,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        xml: &str,
+        xml: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), xml, true, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), xml.as_ref(), true, mode)
     }
 
     // ---- entities by reference -------------------------------------------------------------------------
@@ -280,10 +281,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         domain: u16,
-        reference: &str,
+        reference: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Domain(domain as i16), reference, false, mode)
+        self.create_text(stream, object, EntityLink::Domain(domain as i16), reference.as_ref(), false, mode)
     }
 
     /// `uxr_buffer_create_topic_ref`.
@@ -292,10 +293,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        reference: &str,
+        reference: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), reference, false, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), reference.as_ref(), false, mode)
     }
 
     /// `uxr_buffer_create_datawriter_ref`.
@@ -304,10 +305,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         publisher: ObjectId,
-        reference: &str,
+        reference: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(publisher), reference, false, mode)
+        self.create_text(stream, object, EntityLink::Parent(publisher), reference.as_ref(), false, mode)
     }
 
     /// `uxr_buffer_create_datareader_ref`.
@@ -316,10 +317,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         subscriber: ObjectId,
-        reference: &str,
+        reference: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(subscriber), reference, false, mode)
+        self.create_text(stream, object, EntityLink::Parent(subscriber), reference.as_ref(), false, mode)
     }
 
     /// `uxr_buffer_create_requester_ref`.
@@ -328,10 +329,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        reference: &str,
+        reference: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), reference, false, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), reference.as_ref(), false, mode)
     }
 
     /// `uxr_buffer_create_replier_ref`.
@@ -340,10 +341,10 @@ impl<'s, 'a> Outputs<'s, 'a> {
         stream: StreamId,
         object: ObjectId,
         participant: ObjectId,
-        reference: &str,
+        reference: &(impl AsRef<[u8]> + ?Sized),
         mode: u8,
     ) -> Result<u16> {
-        self.create_text(stream, object, EntityLink::Parent(participant), reference, false, mode)
+        self.create_text(stream, object, EntityLink::Parent(participant), reference.as_ref(), false, mode)
     }
 
     // ---- entities by binary ----------------------------------------------------------------------------
