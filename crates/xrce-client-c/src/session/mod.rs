@@ -99,7 +99,22 @@ unsafe fn slot(session: *mut uxrSession) -> Option<*mut Slot> {
 /// `session` is null or points to a `uxrSession`.
 pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnOnce(&mut Inner) -> R) -> R {
     // SAFETY: contract.
-    let Some(slot) = (unsafe { self::slot(session) }) else { return fallback };
+    let Some(inner) = (unsafe { enter(session) }) else { return fallback };
+    let result = f(inner);
+    // SAFETY: entered just above.
+    unsafe { leave(session) };
+    result
+}
+
+/// Takes `session` for a call: its Rust session, `None` for a null, uninitialised or busy session. Out of line,
+/// as [`leave`], so the many `with_session` instances share one copy (firmware size).
+///
+/// # Safety
+/// `session` is null or points to a `uxrSession`; a `Some` is followed by [`leave`] once the call is done.
+#[inline(never)]
+unsafe fn enter<'s>(session: *mut uxrSession) -> Option<&'s mut Inner> {
+    // SAFETY: contract.
+    let slot = unsafe { self::slot(session) }?;
     // Other threads wait here (multithread profile); this one may already hold the locks (recursive).
     // SAFETY: contract: an initialised session.
     #[cfg(uxr_multithread)]
@@ -114,22 +129,33 @@ pub unsafe fn with_session<R>(session: *mut uxrSession, fallback: R, f: impl FnO
         unsafe {
             crate::lock::release(session);
         }
-        return fallback;
+        return None;
     }
     // SAFETY: not busy, so no other reference to the session exists; callbacks reach only `in_callback` and
     // `busy` (other fields) while this one is live.
     let inner = unsafe { &mut *addr_of_mut!((*slot).session) };
     inner.callbacks().session = session;
-    let result = f(inner);
+    Some(inner)
+}
+
+/// Ends a call [`enter`] began: publishes `info`, clears `busy`, releases the lock.
+///
+/// # Safety
+/// `session` entered by [`enter`], the reference it gave no longer used.
+#[inline(never)]
+unsafe fn leave(session: *mut uxrSession) {
+    let slot = slot_at(session);
+    // SAFETY: entered, so an initialised slot no other reference to the session points into.
+    let inner = unsafe { &mut *addr_of_mut!((*slot).session) };
     // SAFETY: an initialised session; the named fields lie outside the Rust session's memory.
     unsafe { publish(session, inner) };
-    busy.set(false);
-    // SAFETY: taken at the start.
+    // SAFETY: an initialised slot; `busy` is only ever reached through shared references.
+    unsafe { &*addr_of!((*slot).busy) }.set(false);
+    // SAFETY: taken by `enter`.
     #[cfg(uxr_multithread)]
     unsafe {
         crate::lock::release(session);
     }
-    result
 }
 
 /// Brings `info` up to date after a call: the session id, the key and the last request id, as the Rust
