@@ -20,9 +20,7 @@ fuzz_target!(|data: &[u8]| {
     core.create_session(now);
     let mut out = [0u8; 512];
     while core.poll_transmit(now, &mut out).is_some() {}
-    let status_agent = [
-        0x81, 0, 0, 0, 0x04, 0x01, 0x0B, 0, 0, 0, 0x58, 0x52, 0x43, 0x45, 0x01, 0x00, 0x01, 0x0F, 0x00,
-    ];
+    let status_agent = [0x81, 0, 0, 0, 0x04, 0x01, 0x0B, 0, 0, 0, 0x58, 0x52, 0x43, 0x45, 0x01, 0x00, 0x01, 0x0F, 0x00];
     core.handle_input(&status_agent, now, &mut ());
     let (Ok(rel), Ok(be)) =
         (core.create_output_reliable_stream(&mut rel_out, 8), core.create_output_best_effort_stream(&mut be_out))

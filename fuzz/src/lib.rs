@@ -1,6 +1,8 @@
 //! What the fuzz targets share: the operation stream they decode their input into, the in-session header
 //! they can put in front of fuzzed bytes, and the check that everything a core emits parses.
 
+pub mod sessions;
+
 /// Splits fuzz input into operations `[op] [len_lo] [len_hi] [len bytes]` (a length past the end takes
 /// what is left).
 pub fn ops(data: &[u8]) -> impl Iterator<Item = (u8, &[u8])> {

@@ -363,6 +363,19 @@ fn read_request(conn: &mut Connection, max_request_bytes: usize) -> io::Result<O
     }
 }
 
+/// The route [`route`] gives a request, by name: the fuzz target's entry point to the private parser (the
+/// bytes a scraper sends are network input). Not an API.
+#[doc(hidden)]
+pub fn route_name(request: &[u8]) -> Option<&'static str> {
+    route(request).map(|r| match r {
+        Route::Metrics => "metrics",
+        Route::MethodNotAllowed => "method not allowed",
+        Route::NotFound => "not found",
+        Route::TooLarge => "too large",
+        Route::BadRequest => "bad request",
+    })
+}
+
 /// The route of a request, once its head is complete.
 fn route(request: &[u8]) -> Option<Route> {
     let mut headers = [httparse::EMPTY_HEADER; 32];

@@ -484,6 +484,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         self.reset_streams();
         self.st.live.set_recreating(false);
+        fail_pending_ping(&mut self.st);
         self.st.state = SessionState::Creating;
         self.st.session_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
@@ -496,6 +497,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// `uxr_delete_session_retries`.
     pub fn delete_session_retries(&mut self, attempts: usize, now: i64) {
+        fail_pending_ping(&mut self.st);
         self.st.state = SessionState::Deleting;
         self.st.session_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: SESSION_CONNECTION_INTERVAL_MS * MILLIS });
@@ -902,13 +904,19 @@ const fn liveness_probe() -> GetInfo {
     }
 }
 
-/// The session is lost: report it and start reconnection attempts.
-fn lose<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
-    st.state = SessionState::Reconnecting;
+/// A ping only goes out in an established session: leaving it fails the pending one, whose retry would
+/// otherwise stay due forever (a deadline in the past that makes an event loop spin; found by fuzzing).
+fn fail_pending_ping<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>) {
     st.ping_retry = None;
     if st.ping == PingState::Pending {
         st.ping = PingState::Failed;
     }
+}
+
+/// The session is lost: report it and start reconnection attempts.
+fn lose<const OBE: usize, const ORE: usize, const IBE: usize>(st: &mut State<'_, OBE, ORE, IBE>, now: i64) {
+    st.state = SessionState::Reconnecting;
+    fail_pending_ping(st);
     st.live.start_attempts(now);
     st.live.push(SessionEvent::Lost);
 }

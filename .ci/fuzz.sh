@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# CI fuzz step: builds every cargo-fuzz target (nightly, AddressSanitizer, its own target dir fuzz/target) and
+# runs each for FUZZ_SECONDS (20) from its kept corpus (fuzz/corpus/<target>), two at a time (2 cores), with
+# memory and per-input time limits. A crash, timeout, OOM or leak fails the step; its input is left in
+# fuzz/artifacts/<target>/ and the log is printed. New inputs go to a scratch directory, never into the
+# repository. Prints the time it took. Usage: .ci/fuzz.sh [TARGET...] (default: every target).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+start=$(date +%s)
+seconds=${FUZZ_SECONDS:-20}
+parallel=${FUZZ_PARALLEL:-2}
+
+if ! rustup run nightly cargo --version >/dev/null 2>&1; then
+  rustup toolchain install nightly --profile minimal
+fi
+if ! cargo fuzz --version >/dev/null 2>&1; then
+  cargo install cargo-fuzz --locked
+fi
+
+# The dictionary of each target (none for the structure-aware ones: their input is not bytes on a wire).
+dict_of() {
+  case "$1" in
+    message | agent_core | client_session) echo fuzz/dict/xrce.dict ;;
+    serial_framing) echo fuzz/dict/serial.dict ;;
+    tcp_framing | can_framing) echo fuzz/dict/tcp.dict ;;
+    metrics_http) echo fuzz/dict/http.dict ;;
+    config_toml) echo fuzz/dict/toml.dict ;;
+    xml_profiles) echo fuzz/dict/xml.dict ;;
+  esac
+}
+
+if [ $# -gt 0 ]; then
+  targets=("$@")
+else
+  mapfile -t targets < <(cargo +nightly fuzz list)
+fi
+export CARGO_BUILD_JOBS=${CARGO_BUILD_JOBS:-2}
+if [ $# -gt 0 ]; then
+  for t in "${targets[@]}"; do cargo +nightly fuzz build "$t"; done
+else
+  cargo +nightly fuzz build
+fi
+built=$(date +%s)
+echo "fuzz targets built in $((built - start)) s"
+
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+# Runs one target; its log goes to $scratch/<target>.log, its status to $scratch/<target>.rc.
+run_one() {
+  local t=$1 dict args
+  mkdir -p "$scratch/$t" "fuzz/corpus/$t" "fuzz/artifacts/$t"
+  args=(-max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1)
+  dict=$(dict_of "$t")
+  [ -n "$dict" ] && args+=(-dict="$dict")
+  if cargo +nightly fuzz run "$t" "$scratch/$t" "fuzz/corpus/$t" -- "${args[@]}" >"$scratch/$t.log" 2>&1; then
+    echo 0 >"$scratch/$t.rc"
+  else
+    echo 1 >"$scratch/$t.rc"
+  fi
+  printf '%-16s %s\n' "$t" "$(grep -E '^stat::number_of_executed_units' "$scratch/$t.log" | awk '{print $2 " runs"}')"
+}
+
+for ((i = 0; i < ${#targets[@]}; i += parallel)); do
+  for t in "${targets[@]:i:parallel}"; do
+    run_one "$t" &
+  done
+  wait
+done
+
+failed=0
+for t in "${targets[@]}"; do
+  if [ "$(cat "$scratch/$t.rc")" != 0 ]; then
+    echo "=== fuzz target $t failed:" >&2
+    tail -n 60 "$scratch/$t.log" >&2
+    failed=1
+  fi
+done
+echo "fuzz step took $(($(date +%s) - start)) s (${#targets[@]} targets, ${seconds} s each, $parallel at a time)"
+exit "$failed"
