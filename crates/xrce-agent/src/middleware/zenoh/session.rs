@@ -57,7 +57,9 @@ const NODE_DEFAULTS: &[(&str, &str)] = &[
 ];
 
 /// The session's configuration: the file's when given, else rmw_zenoh's node defaults; timestamping on in
-/// both (AdvancedPublisher caches refuse to start without it), and a connect that never holds the start.
+/// both (AdvancedPublisher caches refuse to start without it). A peer (the default) connects in the
+/// background and keeps retrying (Zenoh's peer defaults: no connect timeout, no exit on failure), so no
+/// router does not hold the agent's start; a file's own connect settings are left as they are.
 pub fn build_config(file: Option<&Path>) -> Result<zenoh::Config, SessionError> {
     let mut config = match file {
         Some(path) => zenoh::Config::from_file(path)
@@ -70,14 +72,9 @@ pub fn build_config(file: Option<&Path>) -> Result<zenoh::Config, SessionError> 
             c
         }
     };
-    for (key, value) in [
-        ("timestamping/enabled", "true"),
-        // No router yet must not hold the agent's start: connect in the background and keep retrying.
-        ("connect/timeout_ms", "0"),
-        ("connect/exit_on_failure", "false"),
-    ] {
-        config.insert_json5(key, value).map_err(|e| SessionError::Setting(format!("{key}: {e}")))?;
-    }
+    config
+        .insert_json5("timestamping/enabled", "true")
+        .map_err(|e| SessionError::Setting(format!("timestamping/enabled: {e}")))?;
     Ok(config)
 }
 
