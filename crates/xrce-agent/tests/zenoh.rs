@@ -28,6 +28,8 @@ const STRING: &str = "std_msgs::msg::dds_::String_";
 const STRING_HASH: &str = "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18";
 const SET_BOOL: &str = "std_srvs::srv::dds_::SetBool_";
 const SET_BOOL_HASH: &str = "RIHS01_abe9e4bb6b41b40e6789712c00ec8871923e089af3f667a79992a428cff2da0a";
+const DIAGNOSTICS: &str = "diagnostic_msgs::msg::dds_::DiagnosticArray_";
+const DIAGNOSTICS_HASH: &str = "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e";
 /// How long any awaited event may take before the test reports it missing.
 const WAIT: Duration = Duration::from_secs(20);
 
@@ -275,6 +277,13 @@ fn data_both_ways_with_rmw_zenoh_tokens_attachments_and_withdrawal() {
 
     let up = peer.cmd("take up 3");
     assert_eq!(up["ok"], true, "samples up: {up}");
+    // First contact, reported (not asserted): the agent's write of the first sample to its arrival at ROS.
+    let first = &up["samples"][0];
+    let (sent, received) = (first["attachment"]["ts"].as_i64().unwrap(), first["received_ns"].as_i64().unwrap());
+    println!(
+        "ZENOH-FIRST-CONTACT first sample after STATUS OK: {:.2} ms from the agent's put to the ROS subscription",
+        (received - sent) as f64 / 1e6
+    );
     let gid = peer.gid(&pub_token);
     for (i, sample) in up["samples"].as_array().unwrap().iter().enumerate() {
         let mut payload = vec![0, 1, 0, 0];
@@ -390,6 +399,14 @@ fn services_both_ways_matched_by_sequence_number_and_client_gid() {
     assert_eq!(reply["payload"], "000100000909", "{call}");
     assert_eq!(reply["attachment"]["seq"], 7, "{call}");
     assert_eq!(reply["attachment"]["gid"], bed.peer().gid(&client_token).as_str(), "{call}");
+
+    // `--ros-diagnostics` (on by default): the agent's node publishes /diagnostics, one status per client.
+    let peer = bed.peer();
+    peer.token(&format!("/MP/%/%/xrce_agent/%diagnostics/{DIAGNOSTICS}/{DIAGNOSTICS_HASH}/"));
+    assert_eq!(peer.cmd(&format!("sub diag 0/diagnostics/{DIAGNOSTICS}/{DIAGNOSTICS_HASH}"))["ok"], true);
+    let diag = peer.cmd("take diag 1");
+    assert_eq!(diag["ok"], true, "{diag}");
+    assert!(diag["samples"][0]["payload"].as_str().unwrap().contains(&hex(b"flags")), "the client's node: {diag}");
 }
 
 #[test]

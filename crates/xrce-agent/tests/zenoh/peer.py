@@ -92,8 +92,9 @@ class Node:
         def on_sample(sample):
             raw = sample.attachment.to_bytes() if sample.attachment is not None else None
             with self.cond:
-                self.samples.setdefault(name, []).append(
-                    {"payload": sample.payload.to_bytes().hex(), "attachment": parse_attachment(raw)})
+                self.samples.setdefault(name, []).append({
+                    "payload": sample.payload.to_bytes().hex(), "attachment": parse_attachment(raw),
+                    "received_ns": time.time_ns()})
                 self.cond.notify_all()
         return on_sample
 

@@ -22,14 +22,13 @@ pub struct Attachment {
 impl Attachment {
     /// The bytes rmw_zenoh reads.
     pub fn encode(&self) -> [u8; ENCODED_LEN] {
+        let (seq, time) = (self.sequence_number.to_le_bytes(), self.source_timestamp.to_le_bytes());
+        let gid_len = [GID_LEN as u8];
         let mut out = [0u8; ENCODED_LEN];
-        let (seq, rest) = out.split_at_mut(8);
-        seq.copy_from_slice(&self.sequence_number.to_le_bytes());
-        let (time, rest) = rest.split_at_mut(8);
-        time.copy_from_slice(&self.source_timestamp.to_le_bytes());
-        let (len, gid) = rest.split_at_mut(1);
-        len[0] = GID_LEN as u8;
-        gid.copy_from_slice(&self.gid);
+        let fields = seq.iter().chain(&time).chain(&gid_len).chain(&self.gid);
+        for (o, b) in out.iter_mut().zip(fields) {
+            *o = *b;
+        }
         out
     }
 

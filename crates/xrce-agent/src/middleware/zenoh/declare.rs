@@ -67,21 +67,35 @@ fn payload(data: &[u8]) -> Vec<u8> {
     out
 }
 
+/// Where an endpoint is declared: the session, its node, its id and its topic or service.
+#[derive(Clone, Copy)]
+pub struct At<'a> {
+    /// The session.
+    pub shell: &'a Shell,
+    /// The node the endpoint belongs to.
+    pub node: &'a NodeIdent,
+    /// The endpoint's id.
+    pub id: u64,
+    /// Its topic or service.
+    pub topic: &'a TopicIdent,
+}
+
+impl At<'_> {
+    fn key(&self) -> Result<KeyExpr<'static>, MiddlewareError> {
+        keyexpr(topic_keyexpr(self.node.domain, self.topic))
+    }
+
+    /// Declares the endpoint's token (after its Zenoh entity, so whoever sees the token finds the entity).
+    fn announce(&self, kind: EntityKind) -> Result<Announced, MiddlewareError> {
+        let token = liveliness_token(self.node, self.id, kind, Some(self.topic));
+        Ok(Announced { gid: gid(&token), _token: declare_token(self.shell, &token)? })
+    }
+}
+
 /// An endpoint's announcement: its token (kept alive) and the GID rmw_zenoh derives from it.
 struct Announced {
     gid: [u8; GID_LEN],
     _token: LivelinessToken,
-}
-
-fn announce(
-    shell: &Shell,
-    node: &NodeIdent,
-    id: u64,
-    kind: EntityKind,
-    topic: &TopicIdent,
-) -> Result<Announced, MiddlewareError> {
-    let token = liveliness_token(node, id, kind, Some(topic));
-    Ok(Announced { gid: gid(&token), _token: declare_token(shell, &token)? })
 }
 
 /// An XRCE datawriter: a ROS publisher.
@@ -93,9 +107,9 @@ pub struct Writer {
 
 impl Writer {
     /// Declares the publisher, then its token (so a subscriber that sees the token finds the publisher).
-    pub fn declare(shell: &Shell, node: &NodeIdent, id: u64, topic: &TopicIdent) -> Result<Self, MiddlewareError> {
-        let key = keyexpr(topic_keyexpr(node.domain, topic))?;
-        let mut builder = shell.session.declare_publisher(key).advanced();
+    pub fn declare(at: At<'_>) -> Result<Self, MiddlewareError> {
+        let topic = at.topic;
+        let mut builder = at.shell.session.declare_publisher(at.key()?).advanced();
         if topic.qos.durability == Durability::TransientLocal {
             builder = builder.cache(CacheConfig::default().max_samples(topic.qos.cache_depth())).publisher_detection();
             if topic.qos.reliability == Reliability::Reliable {
@@ -109,7 +123,7 @@ impl Writer {
         };
         // Congestion control stays "drop" (rmw_zenoh blocks keep-all reliable publishers; the core must not).
         let publisher = builder.reliability(reliability).wait().map_err(|e| failed("publisher", e))?;
-        let announced = announce(shell, node, id, EntityKind::Publisher, topic)?;
+        let announced = at.announce(EntityKind::Publisher)?;
         Ok(Self { publisher, announced, sequence_number: 0 })
     }
 
@@ -132,18 +146,13 @@ pub struct Reader {
 
 impl Reader {
     /// Declares the subscriber (querying late publishers' caches when transient local), then its token.
-    pub fn declare(
-        shell: &Shell,
-        node: &NodeIdent,
-        id: u64,
-        topic: &TopicIdent,
-        inbox: Inbox,
-    ) -> Result<Self, MiddlewareError> {
-        let key = keyexpr(topic_keyexpr(node.domain, topic))?;
+    pub fn declare(at: At<'_>, inbox: Inbox) -> Result<Self, MiddlewareError> {
+        let topic = at.topic;
         let queue = inbox.clone();
-        let mut builder = shell
+        let mut builder = at
+            .shell
             .session
-            .declare_subscriber(key)
+            .declare_subscriber(at.key()?)
             .callback(move |sample| queue.push(Sample::Data(body(sample.payload()))))
             .advanced();
         if topic.qos.durability == Durability::TransientLocal {
@@ -156,7 +165,7 @@ impl Reader {
             }
         }
         let subscriber = builder.wait().map_err(|e| failed("subscriber", e))?;
-        let announced = announce(shell, node, id, EntityKind::Subscription, topic)?;
+        let announced = at.announce(EntityKind::Subscription)?;
         Ok(Self { _subscriber: subscriber, _announced: announced, inbox })
     }
 }
@@ -172,16 +181,8 @@ pub struct Requester {
 
 impl Requester {
     /// Declares its token (a client has no Zenoh entity until it sends).
-    pub fn declare(
-        shell: &Shell,
-        node: &NodeIdent,
-        id: u64,
-        service: &TopicIdent,
-        inbox: Inbox,
-    ) -> Result<Self, MiddlewareError> {
-        let key = keyexpr(topic_keyexpr(node.domain, service))?;
-        let announced = announce(shell, node, id, EntityKind::Client, service)?;
-        Ok(Self { key, announced, sequence_number: 0, inbox })
+    pub fn declare(at: At<'_>, inbox: Inbox) -> Result<Self, MiddlewareError> {
+        Ok(Self { key: at.key()?, announced: at.announce(EntityKind::Client)?, sequence_number: 0, inbox })
     }
 
     /// Sends a request to every service server of the key; each reply that carries this request's sequence
@@ -233,24 +234,18 @@ pub struct Replier {
 
 impl Replier {
     /// Declares the queryable (complete, as rmw_zenoh's), then its token.
-    pub fn declare(
-        shell: &Shell,
-        node: &NodeIdent,
-        id: u64,
-        service: &TopicIdent,
-        inbox: Inbox,
-    ) -> Result<Self, MiddlewareError> {
-        let key = keyexpr(topic_keyexpr(node.domain, service))?;
+    pub fn declare(at: At<'_>, inbox: Inbox) -> Result<Self, MiddlewareError> {
         let pending = PendingQueries::default();
         let (queue, held) = (inbox.clone(), Arc::clone(&pending));
-        let queryable = shell
+        let queryable = at
+            .shell
             .session
-            .declare_queryable(key)
+            .declare_queryable(at.key()?)
             .complete(true)
             .callback(move |query| hold_query(query, &held, &queue))
             .wait()
             .map_err(|e| failed("queryable", e))?;
-        let announced = announce(shell, node, id, EntityKind::Service, service)?;
+        let announced = at.announce(EntityKind::Service)?;
         Ok(Self { _queryable: queryable, _announced: announced, pending, inbox })
     }
 
@@ -293,10 +288,13 @@ fn hold_query(query: Query, held: &PendingQueries, inbox: &Inbox) {
 
 /// A request's identity for the XRCE replier: the client's GID as the writer GUID, the sequence number.
 pub fn to_identity(gid: &[u8; GID_LEN], sequence_number: i64) -> SampleIdentity {
-    let mut prefix = [0u8; 12];
-    prefix.copy_from_slice(&gid[..12]);
+    let [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11, k0, k1, k2, kind] = *gid;
     SampleIdentity {
-        writer_guid: Guid { prefix, entity_key: [gid[12], gid[13], gid[14]], entity_kind: gid[15] },
+        writer_guid: Guid {
+            prefix: [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11],
+            entity_key: [k0, k1, k2],
+            entity_kind: kind,
+        },
         sequence_number: SequenceNumber { high: (sequence_number >> 32) as i32, low: sequence_number as u32 },
     }
 }
@@ -304,10 +302,9 @@ pub fn to_identity(gid: &[u8; GID_LEN], sequence_number: i64) -> SampleIdentity 
 /// The inverse of [`to_identity`].
 pub fn from_identity(identity: &SampleIdentity) -> ([u8; GID_LEN], i64) {
     let g = &identity.writer_guid;
-    let mut gid = [0u8; GID_LEN];
-    gid[..12].copy_from_slice(&g.prefix);
-    gid[12..15].copy_from_slice(&g.entity_key);
-    gid[15] = g.entity_kind;
+    let [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11] = g.prefix;
+    let [k0, k1, k2] = g.entity_key;
+    let gid = [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11, k0, k1, k2, g.entity_kind];
     let seq = &identity.sequence_number;
     (gid, (i64::from(seq.high) << 32) | i64::from(seq.low))
 }

@@ -6,7 +6,7 @@
 
 use std::time::{Duration, Instant, UNIX_EPOCH};
 
-use super::declare::{declare_token, Writer};
+use super::declare::{declare_token, At, Writer};
 use super::keys::{liveliness_token, EntityKind, NodeIdent, TopicIdent};
 use super::qos::RosQos;
 use super::Zenoh;
@@ -71,6 +71,7 @@ impl Zenoh {
             qos: RosQos { depth: 10, ..RosQos::default() },
         };
         let id = self.take_id();
-        Ok(Publishing { writer: Writer::declare(&self.shell, &node, id, &topic)?, _node_token: node_token })
+        let writer = Writer::declare(At { shell: &self.shell, node: &node, id, topic: &topic })?;
+        Ok(Publishing { writer, _node_token: node_token })
     }
 }

@@ -40,7 +40,7 @@ use super::describe::ProfileSource;
 use super::{
     Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, MiddlewareStats, SampleVisitor, Waker, WriteOutcome,
 };
-use declare::{declare_token, source_time, Reader, Replier, Requester, Writer};
+use declare::{declare_token, source_time, At, Reader, Replier, Requester, Writer};
 use inbox::{Inbox, WakerSlot};
 use keys::{ros_service_name, ros_topic_name, service_type_name, EntityKind, NodeIdent, TopicIdent};
 use qos::RosQos;
@@ -237,10 +237,11 @@ impl Zenoh {
                 let node = self.node_above(creation.parent)?;
                 let topic = self.topic_of(client, topic, RosQos::from_endpoint(qos))?;
                 let id = self.take_id();
+                let at = At { shell: &self.shell, node: &node, id, topic: &topic };
                 if creation.entity.kind() == ObjectKind::DataWriter {
-                    Handle::Writer(Writer::declare(&self.shell, &node, id, &topic)?)
+                    Handle::Writer(Writer::declare(at)?)
                 } else {
-                    Handle::Reader(Reader::declare(&self.shell, &node, id, &topic, Inbox::new(self.waker.clone()))?)
+                    Handle::Reader(Reader::declare(at, Inbox::new(self.waker.clone()))?)
                 }
             }
             (ObjectKind::Requester | ObjectKind::Replier, Spec::Service { desc, .. }) => {
@@ -254,10 +255,11 @@ impl Zenoh {
                 };
                 let id = self.take_id();
                 let inbox = Inbox::new(self.waker.clone());
+                let at = At { shell: &self.shell, node: &node, id, topic: &service };
                 if creation.entity.kind() == ObjectKind::Requester {
-                    Handle::Requester(Requester::declare(&self.shell, &node, id, &service, inbox)?)
+                    Handle::Requester(Requester::declare(at, inbox)?)
                 } else {
-                    Handle::Replier(Replier::declare(&self.shell, &node, id, &service, inbox)?)
+                    Handle::Replier(Replier::declare(at, inbox)?)
                 }
             }
             (kind, _) => return Err(MiddlewareError::Unsupported(format!("{kind:?} in the zenoh middleware"))),
