@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The zenoh middleware's suite (docs/zenoh.md): crates/xrce-agent/tests/zenoh.rs, a Python peer that follows
 # rmw_zenoh 0.2.x's formats (eclipse-zenoh from PyPI) against XRCE clients through `xrce-agent -m zenoh` and a
-# Zenoh router, inside a loopback-only network namespace (every Zenoh session runs there). Type hashes come
+# Zenoh router, inside a loopback-only network namespace (every Zenoh session runs there); then the fleet test
+# (scripts/zenoh-fleet.sh: two robots' agents behind veth links to a router in a ground namespace, one link cut
+# and restored; namespaces joined to nothing else). Type hashes come
 # from the Jazzy venv of .ci/ros2-venv.sh (AMENT_PREFIX_PATH). Built with --all-features like .ci/run's main
 # build, so its artifacts are reused. Prints its duration. Run as root from the repository root:
 #
@@ -36,4 +38,7 @@ trap 'ip netns del "$ns" 2>/dev/null || true' EXIT
 cargo test -q -p xrce-agent --all-features --test zenoh --no-run
 XRCE_ZENOH_VENV=$PWD/$zenoh_venv XRCE_ROS_VENV=$ros_venv "$netns" "$ns" \
   cargo test -p xrce-agent --all-features --test zenoh -- --ignored
+# The test build made target/debug/xrce-agent with every feature: the fleet runs that one.
+XRCE_ZENOH_VENV=$zenoh_venv XRCE_ROS_VENV=$ros_venv AGENT=${CARGO_TARGET_DIR:-$PWD/target}/debug/xrce-agent \
+  scripts/zenoh-fleet.sh 2
 echo "Zenoh step: $(( $(date +%s) - start )) s"

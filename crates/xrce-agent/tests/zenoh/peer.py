@@ -11,6 +11,7 @@ Waits end on the awaited event or after WAIT seconds; the Rust test asserts on w
 """
 
 import json
+import os
 import struct
 import sys
 import threading
@@ -46,6 +47,8 @@ def config(mode, endpoint):
     c.insert_json5("mode", json.dumps(mode))
     c.insert_json5("scouting/multicast/enabled", "false")
     c.insert_json5("timestamping/enabled", "true")
+    if os.environ.get("ZENOH_LEASE_MS"):  # the fleet test notices a cut link sooner than Zenoh's 10 s
+        c.insert_json5("transport/link/tx/lease", os.environ["ZENOH_LEASE_MS"])
     if mode == "router":
         c.insert_json5("listen/endpoints", json.dumps([endpoint]))
     else:
