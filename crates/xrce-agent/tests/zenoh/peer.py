@@ -6,6 +6,9 @@ end-to-end test (crates/xrce-agent/tests/zenoh.rs). It follows rmw_zenoh's forma
   peer.py router ENDPOINT          a Zenoh router listening on ENDPOINT (what `rmw_zenohd` is), until killed
   peer.py node ENDPOINT            a peer connected to the router; reads one command a line on stdin and
                                    answers each with one JSON line on stdout (commands below, `cmd_*`)
+  peer.py bench-sub ENDPOINT KEY COUNT
+                                   the latency of `xrce-bench ros --direction to-ros` samples (stamped
+                                   std_msgs/UInt8MultiArray) on KEY, as ros_peer.py's bench-sub measures it
 
 Waits end on the awaited event or after WAIT seconds; the Rust test asserts on what they report.
 """
@@ -177,8 +180,50 @@ class Node:
         return {"ok": bool(out), "replies": out}
 
 
+WARMUP = 1 << 63
+IDLE_TIMEOUT = 3.0
+
+
+def bench_sub(endpoint, key, count):
+    """Prints "ready", then one "result" line once COUNT measured samples came (or none for IDLE_TIMEOUT)."""
+    session = zenoh.open(config("peer", endpoint))
+    cond, arrivals, warmup = threading.Condition(), [], [0]
+
+    def on_sample(sample):
+        now = time.time_ns()
+        # Encapsulation, then UInt8MultiArray: no dimensions, data_offset, data's length, data (the stamp first).
+        sent, seq = struct.unpack_from("<QQ", sample.payload.to_bytes(), 4 + 12)
+        with cond:
+            if seq & WARMUP:
+                warmup[0] += 1
+            else:
+                arrivals.append((now, sent, seq))
+            cond.notify_all()
+
+    sub = session.declare_subscriber(key, on_sample)
+    print(json.dumps({"event": "ready"}), flush=True)
+    with cond:
+        seen = 0
+        while len(arrivals) < count:
+            cond.wait(timeout=IDLE_TIMEOUT)
+            if arrivals and len(arrivals) == seen:
+                break
+            seen = len(arrivals)
+    latencies = sorted((a - s) / 1e3 for a, s, _ in arrivals)
+
+    def at(p):
+        return latencies[min(max(-(-p * len(latencies) // 100), 1), len(latencies)) - 1] if latencies else None
+    print(json.dumps({"event": "result", "received": len({q for _, _, q in arrivals}), "expected": count,
+                      "warmup": warmup[0], "latency_us": {"p50": at(50), "p99": at(99), "max": at(100)}}),
+          flush=True)
+    del sub
+    os._exit(0)  # Zenoh's threads would keep the interpreter alive
+
+
 def main():
     mode, endpoint = sys.argv[1], sys.argv[2]
+    if mode == "bench-sub":
+        bench_sub(endpoint, sys.argv[3], int(sys.argv[4]))
     if mode == "router":
         session = zenoh.open(config("router", endpoint))
         print(json.dumps({"router": str(session.zid())}), flush=True)
