@@ -1,5 +1,5 @@
 //! The boundary between the XRCE agent core and whatever carries the data: the in-agent router
-//! ([`ced`]), and a real DDS domain ([`dds`]).
+//! ([`ced`]), a real DDS domain ([`dds`]), and a ROS 2 graph on rmw_zenoh (`zenoh`, cargo feature `zenoh`).
 //!
 //! The core calls the middleware synchronously: to create and delete entities, to write samples, requests
 //! and replies, and to take samples for readers that have an active read task. A middleware whose data
