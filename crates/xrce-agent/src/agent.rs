@@ -99,6 +99,7 @@ fn to_cli_kind(kind: cli::MiddlewareKind) -> MiddlewareKind {
         cli::MiddlewareKind::Ced => MiddlewareKind::Ced,
         cli::MiddlewareKind::Dds => MiddlewareKind::Dds,
         cli::MiddlewareKind::Rtps => MiddlewareKind::Rtps,
+        cli::MiddlewareKind::Zenoh => MiddlewareKind::Zenoh,
     }
 }
 
@@ -642,6 +643,7 @@ fn dds_options(config: &Config) -> DdsOptions {
         share_participants: !config.participant_names,
         shared_memory: config.dds_shm,
         ros_diagnostics: config.ros_diagnostics,
+        zenoh_config: config.zenoh_config.clone(),
     }
 }
 

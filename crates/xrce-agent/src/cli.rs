@@ -99,6 +99,8 @@ pub struct Config {
     pub metrics: Option<std::net::SocketAddr>,
     /// Publish ROS 2 `/diagnostics` through the DDS middleware (`--ros-diagnostics`; ours).
     pub ros_diagnostics: bool,
+    /// The Zenoh session's configuration file (`--zenoh-config`; ours).
+    pub zenoh_config: Option<PathBuf>,
 }
 
 /// What `--dds-engine` selects: the DDS implementation behind `-m dds`.
@@ -246,6 +248,8 @@ pub enum MiddlewareKind {
     Dds,
     /// Legacy Fast RTPS middleware name; accepted by eProsima's parser, no longer implemented there.
     Rtps,
+    /// A ROS 2 graph on rmw_zenoh (ours; cargo feature `zenoh`).
+    Zenoh,
 }
 
 impl MiddlewareKind {
@@ -255,6 +259,7 @@ impl MiddlewareKind {
             Self::Ced => "ced",
             Self::Dds => "dds",
             Self::Rtps => "rtps",
+            Self::Zenoh => "zenoh",
         }
     }
 }
@@ -265,7 +270,8 @@ const ALL_ARGUMENTS: &str = "\
 Arguments per transport (place them after the transport):
   * COMMON (every transport)
       -h/--help                       print help
-      -m/--middleware <ced|dds|rtps>  middleware [default: dds]
+      -m/--middleware <ced|dds|rtps|zenoh>  middleware [default: dds; zenoh: rmw_zenoh's ROS 2 graph,
+                                      builds with the `zenoh` feature]
       -r/--refs <FILE>                Fast DDS XML profiles for entities created by reference
       -v/--verbose [0-6]              log level: 0 off .. 6 trace with hex dumps [default: 4, bare -v: 4]
       -d/--discovery [PORT]           answer agent discovery requests [bare -d: 7400]
@@ -288,6 +294,8 @@ Arguments per transport (place them after the transport):
       --psk-file <FILE>               require a CREATE_CLIENT token made with this pre-shared key (ours)
       --metrics <ADDR:PORT>           serve Prometheus metrics at http://ADDR:PORT/metrics (ours) [default: off]
       --ros-diagnostics <on|off>      publish ROS 2 /diagnostics at 1 Hz (dds middleware; ours) [default: on]
+      --zenoh-config <FILE>           Zenoh session configuration (zenoh middleware; ours) [default:
+                                      $ZENOH_SESSION_CONFIG_URI, else a peer connecting to tcp/localhost:7447]
   * IPvX (udp4, udp6, tcp4, tcp6)
       -p/--port <PORT>                local port (required)
       --max-connections <N>           tcp4, tcp6: most connections served at once (ours) [default: 100]
@@ -431,6 +439,10 @@ struct CommonArgs {
     /// status per client and one for the agent, once a /diagnostics reader is known (on by default).
     #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOff::On)]
     ros_diagnostics: OnOff,
+    /// Zenoh middleware: the Zenoh session's configuration file (JSON5, as zenohd's and rmw_zenoh's; default:
+    /// $ZENOH_SESSION_CONFIG_URI, else rmw_zenoh's node defaults, a peer connecting to tcp/localhost:7447).
+    #[arg(long, value_name = "FILE", value_parser = existing_file)]
+    zenoh_config: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -653,6 +665,7 @@ impl TransportCommand {
             auth: crate::core::AuthPolicy { allow: common.allow, psk },
             metrics: common.metrics,
             ros_diagnostics: common.ros_diagnostics == OnOff::On,
+            zenoh_config: common.zenoh_config,
         })
     }
 }
@@ -801,6 +814,7 @@ mod tests {
                 auth: Default::default(),
                 metrics: None,
                 ros_diagnostics: true,
+                zenoh_config: None,
             }
         );
         assert_eq!(c.log_level_filter(), LevelFilter::INFO);
@@ -865,6 +879,7 @@ mod tests {
         assert!(!ok("udp4 -p 1 --participant-names off").participant_names);
         assert_eq!(ok("udp4 -p 1 --middleware rtps").middleware, MiddlewareKind::Rtps);
         assert_eq!(ok("udp4 -p 1 --middleware ced").middleware.as_str(), "ced");
+        assert_eq!(ok("udp4 -p 1 -m zenoh").middleware, MiddlewareKind::Zenoh);
         assert_eq!(rejected("udp4 -p 1 -m fastdds"), ErrorKind::InvalidValue);
         assert_eq!(rejected("udp4 -p 1 -m CED"), ErrorKind::InvalidValue);
         assert_eq!(rejected("udp4 -p 1 -m"), ErrorKind::InvalidValue);
@@ -1105,7 +1120,8 @@ mod tests {
                 "pseudoterminal",
                 "canfd",
                 "-m/--middleware",
-                "ced|dds|rtps",
+                "ced|dds|rtps|zenoh",
+                "--zenoh-config",
                 "-r/--refs",
                 "-v/--verbose",
                 "-d/--discovery",

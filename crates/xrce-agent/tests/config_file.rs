@@ -185,3 +185,19 @@ fn config_takes_no_other_argument() {
         assert!(cli::parse_invocation(line.iter().copied()).is_err(), "{line:?}");
     }
 }
+
+#[test]
+fn the_zenoh_middleware_and_its_session_file() {
+    let zenoh_file = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/zenoh/peer.py");
+    let text =
+        format!("middleware = \"zenoh\"\nzenoh-config = \"{zenoh_file}\"\n[[transport]]\nkind = \"udp4\"\nport = 1\n");
+    let file = parse(&text, Path::new(FILE)).expect("valid");
+    assert_eq!(file.options.middleware, MiddlewareKind::Zenoh);
+    assert_eq!(file.options.zenoh_config.as_deref(), Some(Path::new(zenoh_file)));
+    assert_error(
+        "zenoh-config = \"/nonexistent.json5\"\n[[transport]]\nkind = \"udp4\"\nport = 1\n",
+        1,
+        Some("zenoh-config"),
+        "",
+    );
+}

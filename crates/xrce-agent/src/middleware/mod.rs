@@ -1,5 +1,5 @@
 //! The boundary between the XRCE agent core and whatever carries the data: the in-agent router
-//! ([`ced`]), and a real DDS domain ([`dds`]).
+//! ([`ced`]), a real DDS domain ([`dds`]), and a ROS 2 graph on rmw_zenoh (`zenoh`, cargo feature `zenoh`).
 //!
 //! The core calls the middleware synchronously: to create and delete entities, to write samples, requests
 //! and replies, and to take samples for readers that have an active read task. A middleware whose data
@@ -17,6 +17,8 @@ pub mod describe;
 pub mod diagnostics;
 pub mod profiles;
 pub mod ros_graph;
+#[cfg(feature = "zenoh")]
+pub mod zenoh;
 
 use std::fmt;
 use std::sync::Arc;
@@ -440,6 +442,8 @@ pub enum MiddlewareKind {
     Dds,
     /// eProsima's legacy Fast RTPS name: the same DDS middleware (eProsima accepts the word, then has none).
     Rtps,
+    /// A ROS 2 graph on rmw_zenoh, through one Zenoh session (cargo feature `zenoh`, docs/zenoh.md).
+    Zenoh,
 }
 
 /// Error for middlewares this build does not have.
@@ -457,6 +461,15 @@ pub enum BuildError {
     /// `ROS_DISCOVERY_SERVER`, the profiles file): it names the variable and the value.
     #[error(transparent)]
     DdsSettings(#[from] xrce_dds::SettingsError),
+    /// This agent was built without the `zenoh` feature.
+    #[error(
+        "middleware `zenoh`: this agent was built without it; rebuild with `cargo build --release -p xrce-agent \
+         --features zenoh` (docs/zenoh.md)"
+    )]
+    ZenohNotBuilt,
+    /// The Zenoh session could not be opened (its configuration file, `ROS_DOMAIN_ID`, Zenoh itself).
+    #[error("middleware `zenoh`: {0}")]
+    Zenoh(String),
 }
 
 impl MiddlewareKind {
@@ -466,6 +479,7 @@ impl MiddlewareKind {
             Self::Ced => "ced",
             Self::Dds => "dds",
             Self::Rtps => "rtps",
+            Self::Zenoh => "zenoh",
         }
     }
 
@@ -483,6 +497,7 @@ impl MiddlewareKind {
     ) -> Result<Box<dyn Middleware + Send>, BuildError> {
         match self {
             Self::Ced => Ok(Box::new(ced::Ced::new(profiles))),
+            Self::Zenoh => build_zenoh(profiles, &options),
             Self::Dds | Self::Rtps => {
                 let engine = options.engine.unwrap_or_default();
                 warn_if_fallback(engine, options.engine.is_some());
@@ -509,6 +524,25 @@ impl MiddlewareKind {
     }
 }
 
+/// The `zenoh` middleware, when this build has it.
+#[cfg(feature = "zenoh")]
+fn build_zenoh(
+    profiles: Arc<dyn ProfileSource>,
+    options: &DdsOptions,
+) -> Result<Box<dyn Middleware + Send>, BuildError> {
+    let z = zenoh::Zenoh::open_with(profiles, options.zenoh_config.as_deref(), options.ros_diagnostics);
+    Ok(Box::new(z.map_err(|e| BuildError::Zenoh(e.to_string()))?))
+}
+
+/// The `zenoh` middleware, when this build has it.
+#[cfg(not(feature = "zenoh"))]
+fn build_zenoh(
+    _profiles: Arc<dyn ProfileSource>,
+    _options: &DdsOptions,
+) -> Result<Box<dyn Middleware + Send>, BuildError> {
+    Err(BuildError::ZenohNotBuilt)
+}
+
 /// Says, as the agent's first warning, that the DDS middleware runs the RustDDS fallback because this build
 /// has no Fast DDS, and how to get it: nobody should find out from lost first samples (docs/dds-engine.md).
 fn warn_if_fallback(engine: xrce_dds::Engine, chosen: bool) {
@@ -524,8 +558,8 @@ fn warn_if_fallback(engine: xrce_dds::Engine, chosen: bool) {
     );
 }
 
-/// Options of the DDS middleware that the command line sets (ours, not eProsima's).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// Options of the DDS and Zenoh middlewares that the command line sets (ours, not eProsima's).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct DdsOptions {
     /// The DDS engine (`--dds-engine`; `None`: `XRCE_DDS_ENGINE`, else rustdds).
     pub engine: Option<xrce_dds::Engine>,
@@ -539,6 +573,9 @@ pub struct DdsOptions {
     pub shared_memory: Option<bool>,
     /// Write ROS 2 `/diagnostics` from the snapshots the core publishes (`--ros-diagnostics`).
     pub ros_diagnostics: bool,
+    /// The Zenoh session's configuration file (`--zenoh-config`); `None`: `ZENOH_SESSION_CONFIG_URI`, else
+    /// rmw_zenoh's node defaults.
+    pub zenoh_config: Option<std::path::PathBuf>,
 }
 
 #[cfg(test)]

@@ -106,7 +106,6 @@ use xrce_dds::{
     BridgeConfig, DdsBridge, DdsError, EndpointQos as DdsQos, Participant, RawReader, RawTopic, RawWriter,
     ReceivedSample, Replier, Requester, SampleQueue, AGENT_DOMAIN,
 };
-use xrce_proto::object::Representation;
 use xrce_proto::types::{Guid, SequenceNumber};
 use xrce_proto::{ClientKey, ObjectKind, RequestId, SampleIdentity};
 
@@ -115,15 +114,14 @@ use super::ros_graph::{RosGraph, RosGraphMode};
 use super::{
     Creation, EntityCounts, EntityRef, Middleware, MiddlewareError, SampleRef, SampleVisitor, Waker, WriteOutcome,
 };
-use crate::profile::{self};
 
 mod diagnostics;
 mod gate;
 mod observe;
-mod spec;
+pub(crate) mod spec;
 
 use gate::{GateTimer, HeldSamples};
-use spec::{spec_from_binary, spec_from_description, spec_from_profile, Spec, TopicSel};
+use spec::{spec_of_creation, Spec, TopicSel};
 
 /// How long a write that found its DDS writer's history full waits before the core is woken to retry it.
 /// The agent's DDS writers never block (`max_blocking_time` 0, see `non_blocking`): the write returns
@@ -530,7 +528,7 @@ fn non_blocking(qos: &DdsQos) -> DdsQos {
     DdsQos { max_blocking_time: Duration::ZERO, ..qos.clone() }
 }
 
-fn invalid(msg: impl Into<String>) -> MiddlewareError {
+pub(crate) fn invalid(msg: impl Into<String>) -> MiddlewareError {
     MiddlewareError::InvalidDescription(msg.into())
 }
 
@@ -541,7 +539,7 @@ fn dds_error(e: DdsError) -> MiddlewareError {
     }
 }
 
-fn unknown(what: impl std::fmt::Debug) -> MiddlewareError {
+pub(crate) fn unknown(what: impl std::fmt::Debug) -> MiddlewareError {
     MiddlewareError::UnknownReference(format!("{what:?}"))
 }
 
@@ -1060,35 +1058,7 @@ impl Dds {
     // ---- descriptions
 
     fn spec_of(&self, creation: &Creation<'_>) -> Result<Spec, MiddlewareError> {
-        let kind = creation.variant.kind;
-        let mut spec = match creation.variant.representation {
-            Representation::Reference(r) => {
-                let mut spec = match self.profiles.reference_profile(kind, r) {
-                    Some(p) => spec_from_profile(p)?,
-                    None => {
-                        let d = self.profiles.resolve_reference(kind, r).ok_or_else(|| unknown(r))?;
-                        spec_from_description(kind, d)?
-                    }
-                };
-                // A profile without `<rtps><name>` names its participant after itself (the ROS 2 node).
-                if let Spec::Participant { name: name @ None, .. } = &mut spec {
-                    *name = Some(r.to_owned());
-                }
-                spec
-            }
-            Representation::Xml(x) => match profile::parse_entity_xml(kind, x) {
-                Ok(p) => spec_from_profile(p)?,
-                Err(strict) => {
-                    let d = self.profiles.parse_xml(kind, x).map_err(|e| invalid(format!("{strict}; {e}")))?;
-                    spec_from_description(kind, d)?
-                }
-            },
-            Representation::Binary(blob) => {
-                let typed =
-                    blob.decode_as(kind, creation.endian).map_err(|e| invalid(format!("binary {kind:?}: {e}")))?;
-                spec_from_binary(typed)?
-            }
-        };
+        let mut spec = spec_of_creation(self.profiles.as_ref(), creation)?;
         if let Spec::Participant { domain, .. } = &mut spec {
             let xrce_domain = creation.variant.domain_id().unwrap_or(0);
             *domain = self.bridge.resolve_domain(i32::from(xrce_domain)).map_err(dds_error)?;
@@ -1494,8 +1464,9 @@ impl Middleware for Dds {
 
 #[cfg(test)]
 mod tests {
-    use super::spec::{qos_from_binary, qos_from_profile};
+    use super::spec::{qos_from_binary, qos_from_profile, spec_from_profile};
     use super::*;
+    use crate::profile;
     use xrce_dds::{Durability, History, Reliability};
     use xrce_proto::object::{EndpointQos as BinaryQos, QosFlags};
 

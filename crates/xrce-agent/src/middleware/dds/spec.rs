@@ -6,14 +6,16 @@ use xrce_dds::{Durability, EndpointQos as DdsQos, History, Reliability, Resource
 use xrce_proto::object::{BinaryObject, EndpointQos as BinaryQos, QosFlags};
 use xrce_proto::{ObjectId, ObjectKind};
 
-use super::invalid;
-use crate::middleware::describe::{Description, TopicRef};
-use crate::middleware::MiddlewareError;
+use xrce_proto::object::Representation;
+
+use super::{invalid, unknown};
+use crate::middleware::describe::{Description, ProfileSource, TopicRef};
+use crate::middleware::{Creation, MiddlewareError};
 use crate::profile::{self, EntityProfile};
 
 /// How a datawriter or datareader names its topic.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub(super) enum TopicSel {
+pub(crate) enum TopicSel {
     /// A topic object of the same client (binary representation).
     Object(ObjectId),
     /// By name (XML and references), with what the description says of type and key.
@@ -22,7 +24,7 @@ pub(super) enum TopicSel {
 
 /// Everything an entity is created from; REUSE compares it whole (through [`Spec::digest`]).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub(super) enum Spec {
+pub(crate) enum Spec {
     Participant { domain: u16, name: Option<String> },
     Topic { name: String, type_name: String, keyed: bool },
     Group { partitions: Vec<String> },
@@ -32,7 +34,7 @@ pub(super) enum Spec {
 
 impl Spec {
     /// A 64-bit digest, the same for equal specs within the process (`DefaultHasher::new` has fixed keys).
-    pub(super) fn digest(&self) -> u64 {
+    pub(crate) fn digest(&self) -> u64 {
         use std::hash::{Hash, Hasher};
         let mut h = std::hash::DefaultHasher::new();
         self.hash(&mut h);
@@ -40,8 +42,41 @@ impl Spec {
     }
 }
 
+/// The spec of what `creation` describes (XML, reference or binary), the participant's domain left at 0 for
+/// the middleware to resolve. Shared by the `dds` and `zenoh` middlewares.
+pub(crate) fn spec_of_creation(profiles: &dyn ProfileSource, creation: &Creation<'_>) -> Result<Spec, MiddlewareError> {
+    let kind = creation.variant.kind;
+    Ok(match creation.variant.representation {
+        Representation::Reference(r) => {
+            let mut spec = match profiles.reference_profile(kind, r) {
+                Some(p) => spec_from_profile(p)?,
+                None => {
+                    let d = profiles.resolve_reference(kind, r).ok_or_else(|| unknown(r))?;
+                    spec_from_description(kind, d)?
+                }
+            };
+            // A profile without `<rtps><name>` names its participant after itself (the ROS 2 node).
+            if let Spec::Participant { name: name @ None, .. } = &mut spec {
+                *name = Some(r.to_owned());
+            }
+            spec
+        }
+        Representation::Xml(x) => match profile::parse_entity_xml(kind, x) {
+            Ok(p) => spec_from_profile(p)?,
+            Err(strict) => {
+                let d = profiles.parse_xml(kind, x).map_err(|e| invalid(format!("{strict}; {e}")))?;
+                spec_from_description(kind, d)?
+            }
+        },
+        Representation::Binary(blob) => {
+            let typed = blob.decode_as(kind, creation.endian).map_err(|e| invalid(format!("binary {kind:?}: {e}")))?;
+            spec_from_binary(typed)?
+        }
+    })
+}
+
 /// Converts the QoS of an XML profile or reference (Fast DDS defaults already applied).
-pub(super) fn qos_from_profile(q: &profile::EndpointQos) -> DdsQos {
+pub(crate) fn qos_from_profile(q: &profile::EndpointQos) -> DdsQos {
     let reliability = match q.reliability {
         profile::Reliability::Reliable => Reliability::Reliable,
         profile::Reliability::BestEffort => Reliability::BestEffort,
@@ -70,7 +105,7 @@ pub(super) fn qos_from_profile(q: &profile::EndpointQos) -> DdsQos {
 }
 
 /// Converts the QoS bits of a binary datawriter/datareader (spec §7.4); `None` gives Fast DDS's defaults.
-pub(super) fn qos_from_binary(base: Option<&BinaryQos<'_>>, writer: bool) -> DdsQos {
+pub(crate) fn qos_from_binary(base: Option<&BinaryQos<'_>>, writer: bool) -> DdsQos {
     let Some(b) = base else {
         let defaults =
             if writer { profile::EndpointQos::writer_default() } else { profile::EndpointQos::reader_default() };
@@ -103,7 +138,7 @@ pub(super) fn qos_from_binary(base: Option<&BinaryQos<'_>>, writer: bool) -> Dds
     }
 }
 
-pub(super) fn spec_from_profile(p: EntityProfile) -> Result<Spec, MiddlewareError> {
+pub(crate) fn spec_from_profile(p: EntityProfile) -> Result<Spec, MiddlewareError> {
     Ok(match p {
         EntityProfile::Participant(p) => Spec::Participant { domain: 0, name: p.name },
         EntityProfile::Topic(t) => Spec::Topic {
@@ -135,7 +170,7 @@ pub(super) fn spec_from_profile(p: EntityProfile) -> Result<Spec, MiddlewareErro
 }
 
 /// For descriptions without QoS (the tolerant XML scan, references resolved by name only).
-pub(super) fn spec_from_description(kind: ObjectKind, d: Description) -> Result<Spec, MiddlewareError> {
+pub(crate) fn spec_from_description(kind: ObjectKind, d: Description) -> Result<Spec, MiddlewareError> {
     Ok(match d {
         Description::Participant { name, .. } => Spec::Participant { domain: 0, name },
         Description::Topic { name, type_name } => Spec::Topic {
@@ -163,7 +198,7 @@ pub(super) fn spec_from_description(kind: ObjectKind, d: Description) -> Result<
     })
 }
 
-pub(super) fn spec_from_binary(b: BinaryObject<'_>) -> Result<Spec, MiddlewareError> {
+pub(crate) fn spec_from_binary(b: BinaryObject<'_>) -> Result<Spec, MiddlewareError> {
     Ok(match b {
         BinaryObject::Participant(p) => {
             Spec::Participant { domain: 0, name: p.qos_profile_reference.map(str::to_owned) }
