@@ -2,7 +2,7 @@
 """Line coverage of the fuzz targets per part of the code, after `cargo +nightly fuzz coverage TARGET` for each
 target named: merges their profiles and prints covered / total lines of xrce-proto, the agent core
 (crates/xrce-agent/src/core) and the C library (crates/xrce-client-c/src), plus every other crate directory.
-Usage: python3 fuzz/coverage_summary.py TARGET...   (needs llvm-tools-preview on nightly)"""
+Usage: [COVERAGE_TARGET_DIR=DIR] python3 fuzz/coverage_summary.py TARGET...   (needs llvm-tools-preview)"""
 import glob
 import json
 import os
@@ -26,7 +26,9 @@ def tool(name):
 def main():
     targets = sys.argv[1:]
     profiles = [os.path.join(ROOT, "fuzz", "coverage", t, "coverage.profdata") for t in targets]
-    binaries = [os.path.join(ROOT, "fuzz", "target", TRIPLE, "coverage", TRIPLE, "release", t) for t in targets]
+    # cargo-fuzz 0.13 builds coverage into the main workspace's target dir, apart from the fuzz build.
+    target_dir = os.environ.get("COVERAGE_TARGET_DIR", os.path.join(ROOT, "target"))
+    binaries = [os.path.join(target_dir, TRIPLE, "coverage", TRIPLE, "release", t) for t in targets]
     merged = os.path.join(ROOT, "fuzz", "coverage", "merged.profdata")
     subprocess.run([tool("llvm-profdata"), "merge", "-sparse", *profiles, "-o", merged], check=True)
     objects = [binaries[0]] + [a for b in binaries[1:] for a in ("-object", b)]
