@@ -387,10 +387,15 @@ fn services_both_ways_matched_by_sequence_number_and_client_gid() {
     assert_eq!(served["requests"][0]["attachment"]["gid"], peer.gid(&sc).as_str(), "{served}");
 
     // ROS client → XRCE server: the peer's call is answered while the XRCE session runs.
+    // As a ROS client waits for its service (the graph, i.e. the server's token) before it calls.
     let call = std::thread::spawn({
         let endpoint = bed.endpoint.clone();
-        let (client_token, local_key) = (client_token.clone(), local_key.clone());
-        move || Peer::start(&endpoint).cmd(&format!("call {local_key} {client_token} 7 0101"))
+        let (client_token, local_key, ss) = (client_token.clone(), local_key.clone(), ss.clone());
+        move || {
+            let mut client = Peer::start(&endpoint);
+            client.token(&ss);
+            client.cmd(&format!("call {local_key} {client_token} 7 0101"))
+        }
     });
     assert!(run_until(&mut s, || call.is_finished()));
     let call = call.join().unwrap();
