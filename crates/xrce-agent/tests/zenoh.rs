@@ -141,7 +141,7 @@ fn start_router(endpoint: &str) -> Killed {
 impl Bed {
     /// `config`: the agent's `--zenoh-config` connects to the router at `endpoint`; without it the agent
     /// runs rmw_zenoh's defaults (the router at tcp/localhost:7447).
-    fn start(name: &str, endpoint: &str, xrce_port: u16, with_router: bool, config: bool) -> Self {
+    fn start(name: &str, endpoint: &str, xrce_port: u16, with_router: bool, config: bool, extra: &[&str]) -> Self {
         netns::require_loopback_namespace();
         let router = with_router.then(|| start_router(endpoint));
         let dir = std::env::temp_dir().join(format!("xrce-zenoh-{name}-{}", std::process::id()));
@@ -152,6 +152,7 @@ impl Bed {
             .env("AMENT_PREFIX_PATH", venv("XRCE_ROS_VENV"))
             .env_remove("ZENOH_SESSION_CONFIG_URI")
             .env_remove("ROS_DOMAIN_ID")
+            .args(extra)
             .stdout(std::fs::File::create(&log).unwrap())
             .stderr(Stdio::null());
         if config {
@@ -239,7 +240,7 @@ fn run_until<T: Transport, C: Callbacks>(s: &mut Session<'_, T, StdClock, C>, do
 #[test]
 #[ignore = "needs the zenoh venvs and a loopback-only namespace (.ci/zenoh.sh)"]
 fn data_both_ways_with_rmw_zenoh_tokens_attachments_and_withdrawal() {
-    let mut bed = Bed::start("data", "tcp/127.0.0.1:17447", 17888, true, true);
+    let mut bed = Bed::start("data", "tcp/127.0.0.1:17447", 17888, true, true, &[]);
     let up_key = format!("0/chatter/{STRING}/{STRING_HASH}");
     let down_key = format!("0/cmd/{STRING}/{STRING_HASH}");
     // The ROS subscription exists before the client: the first sample written after STATUS OK must reach it.
@@ -322,7 +323,7 @@ fn data_both_ways_with_rmw_zenoh_tokens_attachments_and_withdrawal() {
 #[test]
 #[ignore = "needs the zenoh venvs and a loopback-only namespace (.ci/zenoh.sh)"]
 fn services_both_ways_matched_by_sequence_number_and_client_gid() {
-    let mut bed = Bed::start("services", "tcp/127.0.0.1:17448", 17889, true, true);
+    let mut bed = Bed::start("services", "tcp/127.0.0.1:17448", 17889, true, true, &[]);
     let remote_key = format!("0/remote_flag/{SET_BOOL}/{SET_BOOL_HASH}");
     let local_key = format!("0/set_flag/{SET_BOOL}/{SET_BOOL_HASH}");
     let peer_zid = bed.peer().cmd("zid")["zid"].as_str().unwrap().to_owned();
@@ -387,10 +388,15 @@ fn services_both_ways_matched_by_sequence_number_and_client_gid() {
     assert_eq!(served["requests"][0]["attachment"]["gid"], peer.gid(&sc).as_str(), "{served}");
 
     // ROS client → XRCE server: the peer's call is answered while the XRCE session runs.
+    // As a ROS client waits for its service (the graph, i.e. the server's token) before it calls.
     let call = std::thread::spawn({
         let endpoint = bed.endpoint.clone();
-        let (client_token, local_key) = (client_token.clone(), local_key.clone());
-        move || Peer::start(&endpoint).cmd(&format!("call {local_key} {client_token} 7 0101"))
+        let (client_token, local_key, ss) = (client_token.clone(), local_key.clone(), ss.clone());
+        move || {
+            let mut client = Peer::start(&endpoint);
+            client.token(&ss);
+            client.cmd(&format!("call {local_key} {client_token} 7 0101"))
+        }
     });
     assert!(run_until(&mut s, || call.is_finished()));
     let call = call.join().unwrap();
@@ -412,7 +418,7 @@ fn services_both_ways_matched_by_sequence_number_and_client_gid() {
 #[test]
 #[ignore = "needs the zenoh venvs and a loopback-only namespace (.ci/zenoh.sh)"]
 fn transient_local_reaches_a_late_joiner_and_an_unknown_type_is_refused_by_name() {
-    let mut bed = Bed::start("latched", "tcp/127.0.0.1:17449", 17890, true, true);
+    let mut bed = Bed::start("latched", "tcp/127.0.0.1:17449", 17890, true, true, &[]);
     let (mut out_buf, mut in_buf) = ([0u8; 4096], [0u8; 4096]);
     let (mut s, out, _in) = xrce_session(bed.xrce_port, 0x0A0B_0C03, &mut out_buf, &mut in_buf);
     let (part, t1, t2) =
@@ -459,7 +465,7 @@ fn transient_local_reaches_a_late_joiner_and_an_unknown_type_is_refused_by_name(
 #[ignore = "needs the zenoh venvs and a loopback-only namespace (.ci/zenoh.sh)"]
 fn without_a_router_the_agent_serves_says_how_to_start_one_and_joins_it_later() {
     // rmw_zenoh's defaults: the router at tcp/localhost:7447, not running yet.
-    let mut bed = Bed::start("norouter", "tcp/localhost:7447", 17891, false, false);
+    let mut bed = Bed::start("norouter", "tcp/localhost:7447", 17891, false, false, &["--metrics", "127.0.0.1:19464"]);
     let (mut out_buf, mut in_buf) = ([0u8; 4096], [0u8; 4096]);
     let (mut s, out, _in) = xrce_session(bed.xrce_port, 0x0A0B_0C04, &mut out_buf, &mut in_buf);
     let part = object_id(1, ObjectKind::Participant);
@@ -473,10 +479,34 @@ fn without_a_router_the_agent_serves_says_how_to_start_one_and_joins_it_later() 
     let log = bed.log();
     assert_eq!(log.matches("no Zenoh router reachable").count(), 1, "{log}");
     assert!(log.contains("ros2 run rmw_zenoh_cpp rmw_zenohd"), "{log}");
+    // `--metrics` on Zenoh: the client and its participant, from the snapshots the core publishes.
+    let metrics = |s: &mut Session<'_, UdpTransport, StdClock>| {
+        let start = Instant::now();
+        loop {
+            let text = http_get("127.0.0.1:19464", "/metrics");
+            if text.contains("xrce_agent_middleware_participants 1") || start.elapsed() > WAIT {
+                return text;
+            }
+            s.run_session_time(100).unwrap();
+        }
+    };
+    let text = metrics(&mut s);
+    assert!(text.contains("xrce_agent_clients 1") && text.contains("xrce_agent_middleware_participants 1"), "{text}");
 
     bed._router = Some(start_router(&bed.endpoint));
     bed.peer = Some(Peer::start(&bed.endpoint));
     bed.peer().token("/NN/%/%/early_bird");
+}
+
+/// The body of `GET path` (empty when the server does not answer).
+fn http_get(addr: &str, path: &str) -> String {
+    use std::io::Read;
+    let Ok(mut stream) = std::net::TcpStream::connect(addr) else { return String::new() };
+    stream.set_read_timeout(Some(WAIT)).unwrap();
+    write!(stream, "GET {path} HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
+    let mut answer = String::new();
+    let _ = stream.read_to_string(&mut answer);
+    answer
 }
 
 fn hex(bytes: &[u8]) -> String {

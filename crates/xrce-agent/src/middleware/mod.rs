@@ -583,6 +583,15 @@ mod tests {
     use super::*;
     use xrce_proto::layout::DataSubmessage;
 
+    #[cfg(not(feature = "zenoh"))]
+    #[test]
+    fn zenoh_in_a_build_without_it_says_how_to_rebuild() {
+        let Err(e) = MiddlewareKind::Zenoh.build(Arc::new(describe::FallbackProfiles)) else {
+            panic!("built without the feature")
+        };
+        assert!(e.to_string().contains("--features zenoh"), "{e}");
+    }
+
     #[test]
     fn a_reply_is_delivered_after_its_request_and_the_requester() {
         let requester = ObjectId::new(1, ObjectKind::Requester);

@@ -9,6 +9,9 @@ end-to-end test (crates/xrce-agent/tests/zenoh.rs). It follows rmw_zenoh's forma
   peer.py bench-sub ENDPOINT KEY COUNT
                                    the latency of `xrce-bench ros --direction to-ros` samples (stamped
                                    std_msgs/UInt8MultiArray) on KEY, as ros_peer.py's bench-sub measures it
+  peer.py bench-pub ENDPOINT KEY RATE PAYLOAD COUNT
+                                   once a subscription's token for KEY's topic is seen: 2 s of warm-up
+                                   samples, then COUNT stamped ones at RATE (`--direction from-ros`)
 
 Waits end on the awaited event or after WAIT seconds; the Rust test asserts on what they report.
 """
@@ -220,8 +223,51 @@ def bench_sub(endpoint, key, count):
     os._exit(0)  # Zenoh's threads would keep the interpreter alive
 
 
+def bench_pub(endpoint, key, rate, payload, count):
+    """Publishes like an rmw_zenoh publisher (attachment included) once the XRCE subscription's token is seen."""
+    node = Node(endpoint)
+    topic = key.split("/")[1]
+    print(json.dumps({"event": "ready"}), flush=True)
+    if not node.cmd_wait_token("/MS/", "present")["ok"] or not any(("%" + topic + "/") in t for t in node.tokens):
+        print(json.dumps({"event": "result", "sent": 0, "error": "no subscription"}), flush=True)
+        os._exit(1)
+    token = node.endpoint_token(1, "MP", "/" + topic, key.split("/")[2], key.split("/")[3], "::,10:,:,:,,")
+    node.keep.append(node.session.liveliness().declare_token(token))
+    publisher, gid = node.session.declare_publisher(key), gid_of(token)
+    # Encapsulation, UInt8MultiArray with no dimensions, data_offset 0, then `payload` bytes of data.
+    head = CDR_LE + struct.pack("<III", 0, 0, max(payload, 16))
+    period, sent = 1.0 / rate, [0]
+
+    def at_rate(n, flag, seconds):
+        done, nxt = 0, time.monotonic()
+        end = nxt + seconds if seconds else None
+        while (n is None or done < n) and (end is None or time.monotonic() < end):
+            now = time.monotonic()
+            if nxt > now:
+                time.sleep(nxt - now)
+            elif now - nxt > 5 * period:
+                nxt = now
+            nxt += period
+            data = struct.pack("<QQ", time.time_ns(), flag | done) + bytes(max(payload, 16) - 16)
+            sent[0] += 1
+            publisher.put(head + data, attachment=attachment(sent[0], gid))
+            done += 1
+        return done
+
+    warm = at_rate(None, WARMUP, 2.0)
+    t0 = time.monotonic()
+    n = at_rate(count, 0, None)
+    window = time.monotonic() - t0
+    time.sleep(1.0)
+    print(json.dumps({"event": "result", "sent": n, "warmup": warm, "window_s": window,
+                      "achieved_rate": n / window if window else 0.0}), flush=True)
+    os._exit(0)
+
+
 def main():
     mode, endpoint = sys.argv[1], sys.argv[2]
+    if mode == "bench-pub":
+        bench_pub(endpoint, sys.argv[3], float(sys.argv[4]), int(sys.argv[5]), int(sys.argv[6]))
     if mode == "bench-sub":
         bench_sub(endpoint, sys.argv[3], int(sys.argv[4]))
     if mode == "router":

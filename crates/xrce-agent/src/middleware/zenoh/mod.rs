@@ -111,8 +111,13 @@ impl std::fmt::Debug for Zenoh {
 
 /// `ROS_DOMAIN_ID` as rcl reads it (unset or empty: 0).
 pub fn ros_domain_id() -> Result<u32, String> {
-    match std::env::var("ROS_DOMAIN_ID") {
-        Ok(v) if !v.trim().is_empty() => v.trim().parse().map_err(|_| format!("ROS_DOMAIN_ID={v:?} is not a number")),
+    domain_from(std::env::var("ROS_DOMAIN_ID").ok().as_deref())
+}
+
+/// The domain a `ROS_DOMAIN_ID` value names.
+fn domain_from(value: Option<&str>) -> Result<u32, String> {
+    match value.map(str::trim) {
+        Some(v) if !v.is_empty() => v.parse().map_err(|_| format!("ROS_DOMAIN_ID={v:?} is not a domain number")),
         _ => Ok(0),
     }
 }
@@ -380,5 +385,18 @@ fn spec_participant_name(spec: &Spec) -> Option<&str> {
     match spec {
         Spec::Participant { name, .. } => name.as_deref(),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ros_domain_id_as_rcl_reads_it() {
+        assert_eq!(domain_from(None), Ok(0));
+        assert_eq!(domain_from(Some(" ")), Ok(0));
+        assert_eq!(domain_from(Some("42")), Ok(42));
+        assert!(domain_from(Some("robot")).unwrap_err().contains("ROS_DOMAIN_ID"));
     }
 }
