@@ -35,10 +35,12 @@ else
   mapfile -t targets < <(cargo +nightly fuzz list)
 fi
 export CARGO_BUILD_JOBS=${CARGO_BUILD_JOBS:-2}
-# 16 codegen units instead of cargo-fuzz's 1: the agent crate then compiles on both cores (a cold build took
-# 5m44s instead of 10m17s here) for a somewhat slower run, which a 20 s smoke run does not mind. `run` must be
-# given the same flags, or it builds again.
-build_flags=(--codegen-units 16)
+# Unoptimised (`--dev`) and in 16 codegen units instead of cargo-fuzz's optimised single unit: a cold build of
+# every target took 3m41s here against 7 min (16 units, optimised) and 10 min (cargo-fuzz's defaults), on a
+# fresh clone where nothing is cached. The runs are slower (tens to hundreds of inputs a second): in CI they
+# replay the kept corpus and explore a little; the campaign (docs/fuzzing.md) builds optimised. Debug
+# assertions and overflow checks are on either way. `run` must be given the same flags, or it builds again.
+build_flags=(--dev --codegen-units 16)
 if [ $# -gt 0 ]; then
   for t in "${targets[@]}"; do cargo +nightly fuzz build "${build_flags[@]}" "$t"; done
 else
