@@ -2,7 +2,8 @@
 //! sessions (keyed, keyless, again from another address), create entities by XML, reference and binary (valid,
 //! invalid, duplicated, deleted), write (whole and in FRAGMENTs), read, play HEARTBEAT/ACKNACK games, lose and
 //! repeat messages, let time pass and vanish. After every step: no panic, everything the agent sends parses,
-//! and the client table, object tables and transmit queue stay within the configured bounds.
+//! and the client table, object tables and transmit queue stay within the configured bounds. The sequence ends
+//! on a clean link: a client writes samples reliably to its own reader, and each must arrive once, in order.
 #![no_main]
 
 use std::sync::Arc;
@@ -13,7 +14,7 @@ use xrce_agent::core::{AgentCore, CoreConfig};
 use xrce_agent::middleware::ced::Ced;
 use xrce_agent::middleware::profiles::StoreProfiles;
 use xrce_agent::profile::ProfileStore;
-use xrce_fuzz::sessions::{Client, Step, CLIENTS};
+use xrce_fuzz::sessions::{CleanLink, Client, Step, CLEAN_SAMPLES, CLIENTS};
 
 /// Small limits, so that a short sequence reaches every one of them.
 fn config() -> CoreConfig {
@@ -38,6 +39,43 @@ fn config() -> CoreConfig {
 /// plus replies outside any session (bounded by the same limit).
 fn transmit_bound(config: &CoreConfig, clients: usize) -> usize {
     (clients + 1) * (config.max_transmit_queue + 256)
+}
+
+/// The sequence ends on a clean link ([`CleanLink`]): a client the agent still holds (else the first) writes
+/// and reads its own topic; every sample must arrive once, in order.
+fn clean_link(core: &mut AgentCore<u8, Ced>, clients: &mut [Client; CLIENTS], now: &mut Instant, out: &mut Vec<u8>) {
+    let registered = core.client_keys();
+    let index = clients.iter().position(|c| registered.contains(&c.key)).unwrap_or(0);
+    let client = &mut clients[index];
+    let mut link = CleanLink::default();
+    let mut pump = |core: &mut AgentCore<u8, Ced>, link: &mut CleanLink, client: &Client, now: &mut Instant| {
+        for _ in 0..4 {
+            *now += Duration::from_millis(5);
+            core.handle_timeout(*now);
+            core.poll_middleware(*now);
+            while let Some(endpoint) = core.poll_transmit(*now, out) {
+                if endpoint == client.endpoint {
+                    link.observe(out);
+                }
+            }
+            if let Some(ack) = link.acknack(client) {
+                core.handle_datagram(client.endpoint, &ack, *now);
+            }
+        }
+    };
+    for datagram in CleanLink::setup(client) {
+        core.handle_datagram(client.endpoint, &datagram, *now);
+        pump(core, &mut link, client, now);
+    }
+    assert_eq!(link.session_status, Some(0), "the clean link's session was refused");
+    for index in 0..CLEAN_SAMPLES {
+        if let Some(datagram) = CleanLink::write(client, index) {
+            core.handle_datagram(client.endpoint, &datagram, *now);
+        }
+        pump(core, &mut link, client, now);
+    }
+    let written: Vec<Vec<u8>> = (0..CLEAN_SAMPLES).map(CleanLink::sample).collect();
+    assert_eq!(link.delivered, written, "samples written on a clean link: each once, in order");
 }
 
 fuzz_target!(|steps: Vec<Step>| {
@@ -75,6 +113,7 @@ fuzz_target!(|steps: Vec<Step>| {
             assert!(t + Duration::from_secs(1) >= now, "a deadline more than a second in the past");
         }
     }
+    clean_link(&mut core, &mut clients, &mut now, &mut out);
     // Two minutes in 5 s ticks: longer than remove_silent_clients_after plus its probes.
     for _ in 0..24 {
         now += Duration::from_secs(5);

@@ -403,3 +403,151 @@ pub fn datagrams(step: &Step, clients: &mut [Client; CLIENTS]) -> Vec<(u8, Vec<u
     }
     out
 }
+
+/// The topic the clean-link epilogue writes and reads: no XML of the vocabulary names it.
+const CLEAN_TOPIC: &str = "clean-link-epilogue";
+/// Samples the epilogue writes.
+pub const CLEAN_SAMPLES: u8 = 12;
+
+/// The end of every sequence: one client, on a link that now loses nothing, opens a new session, creates a
+/// writer and a reader of its own topic, asks for every sample on its reliable stream and writes
+/// [`CLEAN_SAMPLES`] samples reliably, acknowledging what it received. Whatever the sequence left behind, each
+/// sample must arrive once, in order (the client's reliable input stream: repeats dropped, early messages held).
+#[derive(Debug, Default)]
+pub struct CleanLink {
+    /// STATUS_AGENT's code, once the session answer came.
+    pub session_status: Option<u8>,
+    /// The next sequence number of the agent's reliable stream 0x80 to deliver.
+    next: u16,
+    /// Messages of that stream that came early, by sequence number.
+    early: std::collections::BTreeMap<u16, Vec<u8>>,
+    /// The samples delivered to the reader, in delivery order.
+    pub delivered: Vec<Vec<u8>>,
+}
+
+impl CleanLink {
+    /// The reader's object id.
+    const READER: u16 = 0xE;
+
+    /// The session's CREATE_CLIENT (keyed), then the entities and the READ_DATA, as `client`'s datagrams.
+    pub fn setup(client: &mut Client) -> Vec<Vec<u8>> {
+        client.session_id = 0x7E;
+        (client.reliable_seq, client.best_effort_seq, client.agent_seq) = (0, 0, None);
+        client.sent.clear();
+        let rep = ClientRepresentation::new(client.key, client.session_id, 512);
+        let header = MessageHeader::new(0x80, StreamId::NONE, 0, ClientKey::INVALID);
+        let mut out: Vec<Vec<u8>> = encode(&header, &Submessage::CreateClient(rep)).into_iter().collect();
+        let topic = format!("<dds><topic><name>{CLEAN_TOPIC}</name><dataType>T</dataType></topic></dds>");
+        let endpoint = |tag: &str| {
+            format!(
+                "<dds><{tag}><topic><kind>NO_KEY</kind><name>{CLEAN_TOPIC}</name><dataType>T</dataType></topic></{tag}></dds>"
+            )
+        };
+        let (writer, reader) = (endpoint("data_writer"), endpoint("data_reader"));
+        let entities: [(ObjectKind, u16, ObjectKind, &str); 6] = [
+            (ObjectKind::Participant, 0xE, ObjectKind::Participant, XML[0]),
+            (ObjectKind::Topic, 0xE, ObjectKind::Participant, &topic),
+            (ObjectKind::Publisher, 0xE, ObjectKind::Participant, "<dds><publisher/></dds>"),
+            (ObjectKind::DataWriter, 0xE, ObjectKind::Publisher, &writer),
+            (ObjectKind::Subscriber, 0xE, ObjectKind::Participant, "<dds><subscriber/></dds>"),
+            (ObjectKind::DataReader, Self::READER, ObjectKind::Subscriber, &reader),
+        ];
+        for (kind, number, parent_kind, xml) in entities {
+            let variant = if kind == ObjectKind::Participant {
+                EntityVariant::participant(Representation::Xml(xml), 0)
+            } else {
+                EntityVariant::child(kind, Representation::Xml(xml), ObjectId::new(0xE, parent_kind))
+            };
+            let request =
+                BaseObjectRequest { request_id: client.next_request(), object_id: ObjectId::new(number, kind) };
+            let mode = CreationMode { reuse: false, replace: true };
+            let sub = Submessage::Create(Create { request, mode, variant: ObjectVariant::Entity(variant) });
+            out.extend(client.reliable(&sub));
+        }
+        let unlimited = xrce_proto::submessage::DataDeliveryControl {
+            max_samples: 0xFFFF,
+            max_elapsed_time: 0,
+            max_bytes_per_second: 0,
+            min_pace_period: 0,
+        };
+        let spec = ReadSpecification {
+            preferred_stream_id: 0x80,
+            data_format: 0,
+            content_filter_expression: None,
+            delivery_control: Some(unlimited),
+        };
+        let request = BaseObjectRequest {
+            request_id: client.next_request(),
+            object_id: ObjectId::new(Self::READER, ObjectKind::DataReader),
+        };
+        out.extend(client.reliable(&Submessage::ReadData(ReadData { request, spec })));
+        out
+    }
+
+    /// The `index`-th sample.
+    pub fn sample(index: u8) -> Vec<u8> {
+        vec![0xC1, 0xEA, index, 0x5A]
+    }
+
+    /// WRITE_DATA of the `index`-th sample on the reliable stream.
+    pub fn write(client: &mut Client, index: u8) -> Option<Vec<u8>> {
+        let object_id = ObjectId::new(0xE, ObjectKind::DataWriter);
+        let request = BaseObjectRequest { request_id: client.next_request(), object_id };
+        let data = Self::sample(index);
+        client.reliable(&Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data: &data }))
+    }
+
+    /// ACKNACK of everything delivered so far, missing messages nacked.
+    pub fn acknack(&self, client: &Client) -> Option<Vec<u8>> {
+        let mut bitmap = 0u16;
+        for seq in self.early.keys() {
+            let gap = seq.wrapping_sub(self.next);
+            if (1..16).contains(&gap) {
+                for missing in 0..gap {
+                    if !self.early.contains_key(&self.next.wrapping_add(missing)) {
+                        bitmap |= 1 << missing;
+                    }
+                }
+            }
+        }
+        let ack = AckNack { first_unacked_seq_num: self.next, nack_bitmap: bitmap.to_be_bytes(), stream_id: 0x80 };
+        encode(&client.header(0, 0), &Submessage::AckNack(ack))
+    }
+
+    /// A message the agent sent the client.
+    pub fn observe(&mut self, message: &[u8]) {
+        let Ok((header, _)) = xrce_proto::message::parse(message) else { return };
+        if header.stream_id == StreamId::NONE {
+            self.submessages(message);
+        } else if header.stream_id.0 == 0x80 {
+            let ahead = header.sequence_nr.wrapping_sub(self.next);
+            if ahead == 0 {
+                self.submessages(message);
+                self.next = self.next.wrapping_add(1);
+                while let Some(m) = self.early.remove(&self.next) {
+                    self.submessages(&m);
+                    self.next = self.next.wrapping_add(1);
+                }
+            } else if ahead < 0x8000 {
+                self.early.insert(header.sequence_nr, message.to_vec());
+            }
+        }
+    }
+
+    fn submessages(&mut self, message: &[u8]) {
+        let Ok((_, subs)) = xrce_proto::message::parse(message) else { return };
+        for raw in subs.flatten() {
+            match raw.decode_from_agent() {
+                Ok(xrce_proto::submessage::FromAgent::StatusAgent(result)) => {
+                    self.session_status = Some(result.status.0);
+                }
+                Ok(xrce_proto::submessage::FromAgent::Data(d))
+                    if d.request.object_id == ObjectId::new(Self::READER, ObjectKind::DataReader) =>
+                {
+                    self.delivered.push(d.data.to_vec());
+                }
+                _ => {}
+            }
+        }
+    }
+}

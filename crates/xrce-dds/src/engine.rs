@@ -139,10 +139,13 @@ impl DdsBridge {
                 self.fast.participant(domain, name).map(Participant::Fast)
             }
             #[cfg(not(feature = "fastdds"))]
-            Engine::FastDds => Err(DdsError::Create {
-                what: "participant",
-                reason: "this build has no Fast DDS engine (cargo feature `fastdds`)".to_owned(),
-            }),
+            Engine::FastDds => {
+                let _ = name;
+                Err(DdsError::Create {
+                    what: "participant",
+                    reason: "this build has no Fast DDS engine (cargo feature `fastdds`)".to_owned(),
+                })
+            }
         }
     }
 
@@ -157,7 +160,10 @@ impl DdsBridge {
                 self.fast.existing_participant(domain, name).map(Participant::Fast)
             }
             #[cfg(not(feature = "fastdds"))]
-            Engine::FastDds => None,
+            Engine::FastDds => {
+                let _ = name;
+                None
+            }
         }
     }
 
@@ -170,7 +176,10 @@ impl DdsBridge {
             #[cfg(feature = "fastdds")]
             Engine::FastDds => self.fast.oldest_named_since(self.resolve_domain(xrce_domain_id).ok()?),
             #[cfg(not(feature = "fastdds"))]
-            Engine::FastDds => None,
+            Engine::FastDds => {
+                let _ = xrce_domain_id;
+                None
+            }
         }
     }
 
@@ -467,7 +476,10 @@ impl RawReader {
     /// sequence number is -1 (not known before the write).
     pub fn deliver_ahead(&self, writer: &[u8; 16], body: &[u8]) -> bool {
         match self {
-            Self::Rust(_) => false,
+            Self::Rust(_) => {
+                let _ = (writer, body);
+                false
+            }
             #[cfg(feature = "fastdds")]
             Self::Fast(r) => r.deliver_ahead(writer, body),
         }
