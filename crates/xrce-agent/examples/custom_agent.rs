@@ -11,8 +11,9 @@ use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
+use xrce_agent::custom_agent::CustomAgent;
 use xrce_agent::middleware::MiddlewareKind;
-use xrce_agent::transport::custom::{CustomAgent, CustomAgentIo, Endpoint, EndpointDesc, Mode};
+use xrce_agent::transport::custom::{CustomAgentIo, Endpoint, EndpointDesc, Mode};
 
 /// The user's transport: open binds the socket, close drops it.
 struct UdpIo {

@@ -4,6 +4,7 @@
 //! * [`middleware`]: the `Middleware` trait and the CED middleware.
 //! * [`transport`]: UDP and TCP shells around the core.
 //! * [`agent`]: the library API of eProsima's agent (`Agent`, `AgentInstance`).
+//! * [`custom_agent`]: eProsima's `CustomAgent`, an agent over the user's own transport.
 //! * [`metrics`]: `--metrics`, the agent's snapshot as Prometheus metrics over HTTP.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
@@ -13,6 +14,7 @@ mod bufpool;
 pub mod cli;
 pub mod config_file;
 pub mod core;
+pub mod custom_agent;
 pub mod logging;
 pub mod main_cli;
 pub mod metrics;

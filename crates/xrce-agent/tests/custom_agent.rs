@@ -14,11 +14,10 @@ use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use xrce_agent::custom_agent::CustomAgent;
 use xrce_agent::middleware::callbacks::CallbackKind;
 use xrce_agent::middleware::MiddlewareKind;
-use xrce_agent::transport::custom::{
-    CustomAgent, CustomAgentError, CustomAgentIo, CustomCallbacks, Endpoint, EndpointDesc, Mode,
-};
+use xrce_agent::transport::custom::{CustomAgentError, CustomAgentIo, CustomCallbacks, Endpoint, EndpointDesc, Mode};
 use xrce_client::prelude::*;
 use xrce_client::TransportError;
 

@@ -56,7 +56,9 @@ pub use config::{
 };
 use connection::{Connection, Ctx, Liveness};
 use probe::TimerTick;
-pub use snapshot::{AgentSnapshot, ClientSnapshot, EntityCounts, SnapshotBoard, StreamSnapshot};
+pub use snapshot::{
+    AgentSnapshot, ClientSnapshot, EntityCounts, SnapshotBoard, StreamSnapshot, MAX_CLIENT_SERIES, MAX_CLIENT_STATUSES,
+};
 pub use stats::{ClientCounters, CoreStats, DatagramDrops, DropReason, RemoveReason};
 
 use crate::bufpool::BufPool;

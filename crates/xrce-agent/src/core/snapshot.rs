@@ -14,9 +14,17 @@ use xrce_proto::{ClientKey, ObjectKind};
 use super::connection::Connection;
 use super::stats::{ClientCounters, CoreStats};
 use super::AgentCore;
-use crate::metrics::render::MAX_CLIENT_SERIES;
-use crate::middleware::diagnostics::MAX_CLIENT_STATUSES;
 use crate::middleware::{Middleware, MiddlewareStats};
+
+/// Clients with their own `/metrics` series, at most: past it those silent and probed are shown first, then
+/// the lowest keys (the snapshot carries only those), and `xrce_agent_clients_not_shown` says how many are not
+/// (the agent totals count everyone). At 1,000 clients and ~15 series each a scrape is ~2 MB of text. Here,
+/// below the metrics and the middleware that read it, because the snapshot is cut to it.
+pub const MAX_CLIENT_SERIES: usize = 1000;
+
+/// Clients with a ROS 2 diagnostics status of their own, at most, worst level first (a bigger array helps no
+/// monitor and would cost the DDS link every second); the agent's status says how many are not shown.
+pub const MAX_CLIENT_STATUSES: usize = 256;
 
 /// Entities a client holds, by kind.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -13,11 +13,8 @@ use prometheus_client::registry::Registry;
 
 use crate::core::{AgentSnapshot, ClientCounters, ClientSnapshot, DropReason, RemoveReason};
 
-/// Clients with their own series, at most: past it those silent and probed are shown first, then the lowest
-/// keys (the core copies only those into the snapshot it publishes), and `xrce_agent_clients_not_shown` says
-/// how many are not (the agent totals count everyone). At 1,000 clients
-/// and ~15 series each a scrape is ~2 MB of text.
-pub const MAX_CLIENT_SERIES: usize = 1000;
+/// Clients with their own series, at most (defined with the snapshot, which carries that many).
+pub use crate::core::MAX_CLIENT_SERIES;
 
 /// The snapshot as Prometheus text (format 0.0.4).
 pub fn render(snapshot: Arc<AgentSnapshot>) -> String {

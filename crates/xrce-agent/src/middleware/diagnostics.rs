@@ -17,9 +17,8 @@ pub const TOPIC: &str = "rt/diagnostics";
 /// The DDS type name rmw gives `diagnostic_msgs/msg/DiagnosticArray`.
 pub const TYPE: &str = "diagnostic_msgs::msg::dds_::DiagnosticArray_";
 
-/// Clients with a status of their own, at most, worst level first (a bigger array helps no monitor and
-/// would cost the DDS link every second); the agent's status says how many are not shown.
-pub const MAX_CLIENT_STATUSES: usize = 256;
+/// Clients with a status of their own, at most (defined with the snapshot, which carries that many).
+pub use crate::core::MAX_CLIENT_STATUSES;
 
 /// `diagnostic_msgs/DiagnosticStatus` levels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
