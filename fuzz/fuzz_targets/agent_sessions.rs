@@ -48,15 +48,21 @@ fn clean_link(core: &mut AgentCore<u8, Ced>, clients: &mut [Client; CLIENTS], no
     let index = clients.iter().position(|c| registered.contains(&c.key)).unwrap_or(0);
     let client = &mut clients[index];
     let mut link = CleanLink::default();
+    // Until the agent has nothing more for the client (at most 3 rounds of 1 ms), acknowledging each round.
     let mut pump = |core: &mut AgentCore<u8, Ced>, link: &mut CleanLink, client: &Client, now: &mut Instant| {
-        for _ in 0..4 {
-            *now += Duration::from_millis(5);
+        for _ in 0..3 {
+            *now += Duration::from_millis(1);
             core.handle_timeout(*now);
             core.poll_middleware(*now);
+            let mut heard = false;
             while let Some(endpoint) = core.poll_transmit(*now, out) {
                 if endpoint == client.endpoint {
                     link.observe(out);
+                    heard = true;
                 }
+            }
+            if !heard {
+                break;
             }
             if let Some(ack) = link.acknack(client) {
                 core.handle_datagram(client.endpoint, &ack, *now);

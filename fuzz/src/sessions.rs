@@ -407,7 +407,7 @@ pub fn datagrams(step: &Step, clients: &mut [Client; CLIENTS]) -> Vec<(u8, Vec<u
 /// The topic the clean-link epilogue writes and reads: no XML of the vocabulary names it.
 const CLEAN_TOPIC: &str = "clean-link-epilogue";
 /// Samples the epilogue writes.
-pub const CLEAN_SAMPLES: u8 = 12;
+pub const CLEAN_SAMPLES: u8 = 8;
 
 /// The end of every sequence: one client, on a link that now loses nothing, opens a new session, creates a
 /// writer and a reader of its own topic, asks for every sample on its reliable stream and writes
