@@ -181,6 +181,31 @@ impl Client {
         RequestId(self.request)
     }
 
+    /// WRITE_DATA of `data` by `writer`, with the next request id.
+    fn write_data<'a>(&mut self, writer: ObjectId, data: &'a [u8]) -> Submessage<'a> {
+        let request = BaseObjectRequest { request_id: self.next_request(), object_id: writer };
+        Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data })
+    }
+
+    /// READ_DATA on `reader`, its samples on `stream`, at most `max_samples` of them (none: one sample, as
+    /// eProsima's agent reads without delivery control; `0xFFFF`: unlimited), with the next request id.
+    fn read_data(&mut self, reader: ObjectId, stream: u8, max_samples: Option<u16>) -> Submessage<'static> {
+        let delivery_control = max_samples.map(|max_samples| xrce_proto::submessage::DataDeliveryControl {
+            max_samples,
+            max_elapsed_time: 0,
+            max_bytes_per_second: 0,
+            min_pace_period: 0,
+        });
+        let spec = ReadSpecification {
+            preferred_stream_id: stream,
+            data_format: 0,
+            content_filter_expression: None,
+            delivery_control,
+        };
+        let request = BaseObjectRequest { request_id: self.next_request(), object_id: reader };
+        Submessage::ReadData(ReadData { request, spec })
+    }
+
     /// A reliable message (stream 0x80) carrying `sub`, remembered for repeats.
     fn reliable(&mut self, sub: &Submessage<'_>) -> Option<Vec<u8>> {
         let message = encode(&self.header(0x80, self.reliable_seq), sub)?;
@@ -299,9 +324,7 @@ pub fn datagrams(step: &Step, clients: &mut [Client; CLIENTS]) -> Vec<(u8, Vec<u
         }
         Step::Write { client, number, reliable, sample } => {
             let c = &mut clients[pick(*client)];
-            let object_id = ObjectId::new(u16::from(number % 4), ObjectKind::DataWriter);
-            let request = BaseObjectRequest { request_id: c.next_request(), object_id };
-            let sub = Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data: sample });
+            let sub = c.write_data(ObjectId::new(u16::from(number % 4), ObjectKind::DataWriter), sample);
             let message = if *reliable {
                 c.reliable(&sub)
             } else {
@@ -312,9 +335,7 @@ pub fn datagrams(step: &Step, clients: &mut [Client; CLIENTS]) -> Vec<(u8, Vec<u
         }
         Step::WriteFragmented { client, number, sample, piece } => {
             let c = &mut clients[pick(*client)];
-            let object_id = ObjectId::new(u16::from(number % 4), ObjectKind::DataWriter);
-            let request = BaseObjectRequest { request_id: c.next_request(), object_id };
-            let sub = Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data: sample });
+            let sub = c.write_data(ObjectId::new(u16::from(number % 4), ObjectKind::DataWriter), sample);
             // The inner message is the submessage alone: the bytes after a keyless header.
             let Some(inner) = encode(&MessageHeader::new(0x81, StreamId(0x80), 0, ClientKey::INVALID), &sub) else {
                 return out;
@@ -329,21 +350,8 @@ pub fn datagrams(step: &Step, clients: &mut [Client; CLIENTS]) -> Vec<(u8, Vec<u
         }
         Step::Read { client, number, stream, max_samples } => {
             let c = &mut clients[pick(*client)];
-            let object_id = ObjectId::new(u16::from(number % 4), ObjectKind::DataReader);
-            let delivery_control = max_samples.map(|max_samples| xrce_proto::submessage::DataDeliveryControl {
-                max_samples,
-                max_elapsed_time: 0,
-                max_bytes_per_second: 0,
-                min_pace_period: 0,
-            });
-            let spec = ReadSpecification {
-                preferred_stream_id: *stream,
-                data_format: 0,
-                content_filter_expression: None,
-                delivery_control,
-            };
-            let request = BaseObjectRequest { request_id: c.next_request(), object_id };
-            out.extend(c.reliable(&Submessage::ReadData(ReadData { request, spec })).map(|m| (c.endpoint, m)));
+            let sub = c.read_data(ObjectId::new(u16::from(number % 4), ObjectKind::DataReader), *stream, *max_samples);
+            out.extend(c.reliable(&sub).map(|m| (c.endpoint, m)));
         }
         Step::Heartbeat { client, first, last, stream } => {
             let c = &clients[pick(*client)];
@@ -464,23 +472,8 @@ impl CleanLink {
             let sub = Submessage::Create(Create { request, mode, variant: ObjectVariant::Entity(variant) });
             out.extend(client.reliable(&sub));
         }
-        let unlimited = xrce_proto::submessage::DataDeliveryControl {
-            max_samples: 0xFFFF,
-            max_elapsed_time: 0,
-            max_bytes_per_second: 0,
-            min_pace_period: 0,
-        };
-        let spec = ReadSpecification {
-            preferred_stream_id: 0x80,
-            data_format: 0,
-            content_filter_expression: None,
-            delivery_control: Some(unlimited),
-        };
-        let request = BaseObjectRequest {
-            request_id: client.next_request(),
-            object_id: ObjectId::new(Self::READER, ObjectKind::DataReader),
-        };
-        out.extend(client.reliable(&Submessage::ReadData(ReadData { request, spec })));
+        let read = client.read_data(ObjectId::new(Self::READER, ObjectKind::DataReader), 0x80, Some(0xFFFF));
+        out.extend(client.reliable(&read));
         out
     }
 
@@ -491,10 +484,9 @@ impl CleanLink {
 
     /// WRITE_DATA of the `index`-th sample on the reliable stream.
     pub fn write(client: &mut Client, index: u8) -> Option<Vec<u8>> {
-        let object_id = ObjectId::new(0xE, ObjectKind::DataWriter);
-        let request = BaseObjectRequest { request_id: client.next_request(), object_id };
         let data = Self::sample(index);
-        client.reliable(&Submessage::WriteData(DataPayload { request, format: DataFormat::DATA, data: &data }))
+        let sub = client.write_data(ObjectId::new(0xE, ObjectKind::DataWriter), &data);
+        client.reliable(&sub)
     }
 
     /// ACKNACK of everything delivered so far, missing messages nacked.
