@@ -408,7 +408,10 @@ fn services_both_ways_matched_by_sequence_number_and_client_gid() {
 
     // `--ros-diagnostics` (on by default): the agent's node publishes /diagnostics, one status per client.
     let peer = bed.peer();
-    peer.token(&format!("/MP/%/%/xrce_agent/%diagnostics/{DIAGNOSTICS}/{DIAGNOSTICS_HASH}/"));
+    // Its node is `xrce_agent_<its zid>`, so that a fleet's agents do not share one node name.
+    let token = peer.token(&format!("/%diagnostics/{DIAGNOSTICS}/{DIAGNOSTICS_HASH}/"));
+    let zid = token.split('/').nth(2).unwrap();
+    assert!(token.contains(&format!("/MP/%/%/xrce_agent_{zid}/%diagnostics/")), "{token}");
     assert_eq!(peer.cmd(&format!("sub diag 0/diagnostics/{DIAGNOSTICS}/{DIAGNOSTICS_HASH}"))["ok"], true);
     let diag = peer.cmd("take diag 1");
     assert_eq!(diag["ok"], true, "{diag}");

@@ -78,9 +78,12 @@ def main():
         for i in range(1, robots + 1):
             ns = "%s%d" % (prefix, i)
             config = tempfile.NamedTemporaryFile("w", suffix=".json5", delete=False)
-            config.write('{ mode: "peer", connect: { endpoints: ["tcp/198.18.%d.1:7447"] }, '
-                         'listen: { endpoints: ["tcp/198.18.%d.2:0"] }, scouting: { multicast: { enabled: false } }, '
-                         'transport: { link: { tx: { lease: %s } } } }' % (i, i, LEASE_MS))
+            # A client of the ground's router, as docs/zenoh.md tells robots to be: rmw_zenohd's stock router
+            # does not broker between peers (peers_failover_brokering: false, as peer.py's router), so a robot in
+            # peer mode would reach a ground node only if each could connect to the other.
+            config.write('{ mode: "client", connect: { endpoints: ["tcp/198.18.%d.1:7447"] }, '
+                         'scouting: { multicast: { enabled: false } }, '
+                         'transport: { link: { tx: { lease: %s } } } }' % (i, LEASE_MS))
             config.close()
             procs.append(subprocess.Popen(
                 ["ip", "netns", "exec", ns, agent_bin, "udp4", "-p", "8888", "-m", "zenoh", "-v", "3",

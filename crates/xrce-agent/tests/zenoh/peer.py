@@ -57,6 +57,8 @@ def config(mode, endpoint):
         c.insert_json5("transport/link/tx/lease", os.environ["ZENOH_LEASE_MS"])
     if mode == "router":
         c.insert_json5("listen/endpoints", json.dumps([endpoint]))
+        # rmw_zenohd's stock configuration: no forwarding between two peers that cannot reach each other.
+        c.insert_json5("routing/router/peers_failover_brokering", "false")
     else:
         c.insert_json5("connect/endpoints", json.dumps([endpoint]))
         c.insert_json5("listen/endpoints", json.dumps(["tcp/127.0.0.1:0"]))

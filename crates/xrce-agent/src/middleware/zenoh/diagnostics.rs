@@ -1,6 +1,7 @@
 //! `--ros-diagnostics` on Zenoh: each snapshot the core publishes becomes a ROS 2 `DiagnosticArray` on
 //! `/diagnostics` ([`crate::middleware::diagnostics`] encodes it), published by the agent's own node
-//! `/xrce_agent` with rmw_zenoh's key, token and attachment, as rclcpp's diagnostic_updater publishes it
+//! `/xrce_agent_<zid>` (its Zenoh id: every agent of a fleet has a node name of its own) with rmw_zenoh's key,
+//! token and attachment, as rclcpp's diagnostic_updater publishes it
 //! (reliable, volatile, keep last 10). The type hash comes from AMENT_PREFIX_PATH like any other: without
 //! diagnostic_msgs there, no `/diagnostics` (said once).
 
@@ -26,6 +27,12 @@ pub(super) struct RosDiagnostics {
     publishing: Option<Publishing>,
     /// The publisher could not be declared: no more attempts (said once).
     failed: bool,
+}
+
+/// The agent's node: `xrce_agent_<zid>`. One name for every agent would give a fleet's graph as many nodes of
+/// that name as robots (`ros2 node list` warns of duplicates; tools keyed by node name mix them up).
+fn node_name(zid: &str) -> String {
+    format!("xrce_agent_{zid}")
 }
 
 impl Zenoh {
@@ -61,7 +68,7 @@ impl Zenoh {
             node_id,
             enclave: "/".into(),
             namespace: "/".into(),
-            name: "xrce_agent".into(),
+            name: node_name(&self.shell.zid),
         };
         let node_token = declare_token(&self.shell, &liveliness_token(&node, node_id, EntityKind::Node, None))?;
         let topic = TopicIdent {
@@ -73,5 +80,14 @@ impl Zenoh {
         let id = self.take_id();
         let writer = Writer::declare(At { shell: &self.shell, node: &node, id, topic: &topic })?;
         Ok(Publishing { writer, _node_token: node_token })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn each_agent_has_a_node_name_of_its_own() {
+        assert_eq!(super::node_name("1f2e"), "xrce_agent_1f2e");
+        assert_ne!(super::node_name("1f2e"), super::node_name("a0"));
     }
 }

@@ -43,9 +43,10 @@ pub fn config_file(cli: Option<&Path>) -> Option<PathBuf> {
     cli.map(Path::to_path_buf).or_else(|| std::env::var_os(SESSION_CONFIG_ENV).map(PathBuf::from))
 }
 
-/// rmw_zenoh's node defaults: a peer that connects to the router on localhost, listens on an ephemeral
-/// localhost port, scouts by gossip only (no multicast) and timestamps its samples (the transient local
-/// caches need it).
+/// rmw_zenoh's node defaults (its `DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`, 0.2.x): a peer that connects to
+/// the router on localhost, listens on an ephemeral localhost port, scouts by gossip only (no multicast, gossip
+/// sent to the router), and keeps a link 60 s without news (Zenoh's own default is 10 s), so that the agent's
+/// nodes leave a graph when a ROS node on the same router would, not sooner. Timestamps are set after.
 const NODE_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""peer""#),
     ("connect/endpoints", r#"["tcp/localhost:7447"]"#),
@@ -53,7 +54,12 @@ const NODE_DEFAULTS: &[(&str, &str)] = &[
     ("scouting/multicast/enabled", "false"),
     ("scouting/gossip/enabled", "true"),
     ("scouting/gossip/multihop", "false"),
+    ("scouting/gossip/target", r#"{"router": ["router", "peer"], "peer": ["router"]}"#),
     ("scouting/gossip/autoconnect", r#"{"router": [], "peer": ["router", "peer"]}"#),
+    ("transport/unicast/open_timeout", "60000"),
+    ("transport/unicast/accept_timeout", "60000"),
+    ("transport/link/tx/lease", "60000"),
+    ("transport/link/tx/keep_alive", "2"),
 ];
 
 /// The session's configuration: the file's when given, else rmw_zenoh's node defaults; timestamping on in
@@ -184,6 +190,10 @@ mod tests {
         assert!(json("connect/endpoints").contains("tcp/localhost:7447"), "{}", json("connect/endpoints"));
         assert_eq!(json("scouting/multicast/enabled"), "false");
         assert!(json("timestamping/enabled").contains("true"));
+        // rmw_zenoh's lease, not Zenoh's 10 s: a link is given up when a ROS node on the same router gives it up.
+        assert_eq!(json("transport/link/tx/lease"), "60000");
+        assert_eq!(json("transport/link/tx/keep_alive"), "2");
+        assert!(json("scouting/gossip/target").contains(r#""peer":["router"]"#), "{}", json("scouting/gossip/target"));
     }
 
     #[test]
