@@ -282,7 +282,7 @@ unsafe fn perform(s: *mut uxrSession, call: &Call, streams: [uxrStreamId; 4]) {
             Call::CreateRef { kind: k, id, parent, reliable } => {
                 let object = uxr_object_id(u16::from(*id), kind(*k));
                 let parent = uxr_object_id(u16::from(*parent), 1);
-                let name = b"t\0".as_ptr().cast::<c_char>();
+                let name = c"t".as_ptr();
                 uxr_buffer_create_topic_ref(s, out(*reliable), object, parent, name, 1);
             }
             Call::RequestData { reader, reliable_data, max_samples } => {
