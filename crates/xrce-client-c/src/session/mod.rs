@@ -190,20 +190,43 @@ pub unsafe fn with_outputs<R>(
     let Some(slot) = (unsafe { self::slot(session) }) else { return fallback };
     // SAFETY: an initialised slot; `in_callback` is only reached through shared references.
     let lent = unsafe { &*addr_of!((*slot).in_callback) }.get();
+    // `f` is called at one place only, so each instance holds one copy of it (firmware size).
     // SAFETY: non-null only while a callback runs, during which the outputs it points to are borrowed for the
     // callback and reached by nothing else.
-    if let Some(out) = unsafe { lent.as_mut() } {
-        return f(out.reborrow());
+    let (out, entered) = match unsafe { lent.as_mut() } {
+        Some(out) => (out.reborrow(), false),
+        None => {
+            // SAFETY: contract.
+            let Some(inner) = (unsafe { open_outputs(session) }) else { return fallback };
+            (inner.outputs(), true)
+        }
+    };
+    let result = f(out);
+    if entered {
+        // SAFETY: entered by `open_outputs`; the outputs borrowed from the session were consumed by `f`.
+        unsafe { leave(session) };
     }
+    result
+}
+
+/// The session's own outputs for [`with_outputs`]: a sample still being serialized through a window goes into
+/// the stream first, then the session is entered; `None` (not entered) when it cannot be, or once the session
+/// is deleted. Out of line: one copy for every `with_outputs` instance (firmware size).
+///
+/// # Safety
+/// `session` is null or points to a `uxrSession`; a `Some` is followed by [`leave`] once the call is done.
+#[inline(never)]
+unsafe fn open_outputs<'s>(session: *mut uxrSession) -> Option<&'s mut Inner> {
     // SAFETY: contract.
-    unsafe {
-        // A sample still being serialized through a window goes into the stream before anything after it.
-        fragmented::finish_pending(session);
-        with_session(session, None, |s| {
-            (!matches!(s.core().state(), SessionState::Deleted | SessionState::Deleting)).then(|| f(s.outputs()))
-        })
+    unsafe { fragmented::finish_pending(session) };
+    // SAFETY: contract.
+    let inner = unsafe { enter(session) }?;
+    if matches!(inner.core().state(), SessionState::Deleted | SessionState::Deleting) {
+        // SAFETY: entered just above; `inner` is not used again.
+        unsafe { leave(session) };
+        return None;
     }
-    .unwrap_or(fallback)
+    Some(inner)
 }
 
 /// The identity of the last request `session` received.
