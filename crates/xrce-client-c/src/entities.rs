@@ -33,8 +33,60 @@ pub unsafe fn text<'s>(s: *const c_char) -> Option<&'s str> {
     unsafe { CStr::from_ptr(s) }.to_str().ok()
 }
 
+/// What a CREATE by text hangs from: a domain (participants) or a parent object.
+#[derive(Clone, Copy)]
+enum Link {
+    Domain(u16),
+    Parent(uxrObjectId),
+}
+
+impl From<u16> for Link {
+    fn from(d: u16) -> Self {
+        Self::Domain(d)
+    }
+}
+
+impl From<uxrObjectId> for Link {
+    fn from(p: uxrObjectId) -> Self {
+        Self::Parent(p)
+    }
+}
+
+/// Every CREATE by XML or reference: the core's encoding differs only by the link and by XML against
+/// reference, so one out-of-line function with one `with_outputs` instance serves the fourteen entry points
+/// (firmware size).
+///
+/// # Safety
+/// `session` null or a `uxrSession`; `text_arg` null or NUL-terminated.
+#[inline(never)]
+unsafe fn create_text(
+    session: *mut uxrSession,
+    stream_id: uxrStreamId,
+    object_id: uxrObjectId,
+    link: Link,
+    text_arg: *const c_char,
+    xml: bool,
+    mode: u8,
+) -> u16 {
+    // SAFETY: contract.
+    let Some(t) = (unsafe { text_bytes(text_arg) }) else { return 0 };
+    let (stream, object) = (stream_id.rust(), object_id.rust());
+    // SAFETY: contract.
+    unsafe {
+        with_outputs(session, 0, |mut o| {
+            match (link, xml) {
+                (Link::Domain(d), true) => o.buffer_create_participant_xml(stream, object, d, t, mode),
+                (Link::Domain(d), false) => o.buffer_create_participant_ref(stream, object, d, t, mode),
+                (Link::Parent(p), true) => o.buffer_create_topic_xml(stream, object, p.rust(), t, mode),
+                (Link::Parent(p), false) => o.buffer_create_topic_ref(stream, object, p.rust(), t, mode),
+            }
+            .unwrap_or(0)
+        })
+    }
+}
+
 macro_rules! create_by_text {
-    ($($(#[$m:meta])* $name:ident => $method:ident($parent:ident: $pty:ty => $conv:expr));* $(;)?) => {$(
+    ($($(#[$m:meta])* $name:ident($parent:ident: $pty:ty, $xml:expr));* $(;)?) => {$(
         $(#[$m])*
         ///
         /// # Safety
@@ -49,76 +101,40 @@ macro_rules! create_by_text {
             mode: u8,
         ) -> u16 {
             // SAFETY: contract.
-            let Some(t) = (unsafe { text_bytes(text_arg) }) else { return 0 };
-            let conv = $conv;
-            // SAFETY: contract.
-            unsafe {
-                with_outputs(session, 0, |mut o| {
-                    o.$method(stream_id.rust(), object_id.rust(), conv($parent), t, mode).unwrap_or(0)
-                })
-            }
+            unsafe { create_text(session, stream_id, object_id, Link::from($parent), text_arg, $xml, mode) }
         }
     )*};
 }
 
-fn domain(d: u16) -> u16 {
-    d
-}
-
-fn parent(p: uxrObjectId) -> xrce_client::ObjectId {
-    p.rust()
-}
-
 create_by_text! {
     /// `uxr_buffer_create_participant_xml`.
-    uxr_buffer_create_participant_xml => buffer_create_participant_xml(domain_id: u16 => domain);
+    uxr_buffer_create_participant_xml(domain_id: u16, true);
     /// `uxr_buffer_create_topic_xml`.
-    uxr_buffer_create_topic_xml => buffer_create_topic_xml(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_topic_xml(participant_id: uxrObjectId, true);
     /// `uxr_buffer_create_publisher_xml`.
-    uxr_buffer_create_publisher_xml => buffer_create_publisher_xml(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_publisher_xml(participant_id: uxrObjectId, true);
     /// `uxr_buffer_create_subscriber_xml`.
-    uxr_buffer_create_subscriber_xml => buffer_create_subscriber_xml(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_subscriber_xml(participant_id: uxrObjectId, true);
     /// `uxr_buffer_create_datawriter_xml`.
-    uxr_buffer_create_datawriter_xml => buffer_create_datawriter_xml(publisher_id: uxrObjectId => parent);
+    uxr_buffer_create_datawriter_xml(publisher_id: uxrObjectId, true);
     /// `uxr_buffer_create_datareader_xml`.
-    uxr_buffer_create_datareader_xml => buffer_create_datareader_xml(subscriber_id: uxrObjectId => parent);
+    uxr_buffer_create_datareader_xml(subscriber_id: uxrObjectId, true);
     /// `uxr_buffer_create_requester_xml`.
-    uxr_buffer_create_requester_xml => buffer_create_requester_xml(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_requester_xml(participant_id: uxrObjectId, true);
     /// `uxr_buffer_create_replier_xml`.
-    uxr_buffer_create_replier_xml => buffer_create_replier_xml(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_replier_xml(participant_id: uxrObjectId, true);
     /// `uxr_buffer_create_topic_ref`.
-    uxr_buffer_create_topic_ref => buffer_create_topic_ref(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_topic_ref(participant_id: uxrObjectId, false);
     /// `uxr_buffer_create_datawriter_ref`.
-    uxr_buffer_create_datawriter_ref => buffer_create_datawriter_ref(publisher_id: uxrObjectId => parent);
+    uxr_buffer_create_datawriter_ref(publisher_id: uxrObjectId, false);
     /// `uxr_buffer_create_datareader_ref`.
-    uxr_buffer_create_datareader_ref => buffer_create_datareader_ref(subscriber_id: uxrObjectId => parent);
+    uxr_buffer_create_datareader_ref(subscriber_id: uxrObjectId, false);
     /// `uxr_buffer_create_requester_ref`.
-    uxr_buffer_create_requester_ref => buffer_create_requester_ref(participant_id: uxrObjectId => parent);
+    uxr_buffer_create_requester_ref(participant_id: uxrObjectId, false);
     /// `uxr_buffer_create_replier_ref`.
-    uxr_buffer_create_replier_ref => buffer_create_replier_ref(participant_id: uxrObjectId => parent);
-}
-
-/// `uxr_buffer_create_participant_ref` as eProsima's library declares it (with a domain).
-///
-/// # Safety
-/// `session` null or a `uxrSession`; `reference` null or NUL-terminated.
-#[no_mangle]
-pub unsafe extern "C" fn uxr_buffer_create_participant_ref(
-    session: *mut uxrSession,
-    stream_id: uxrStreamId,
-    object_id: uxrObjectId,
-    domain_id: u16,
-    reference: *const c_char,
-    mode: u8,
-) -> u16 {
-    // SAFETY: contract.
-    let Some(r) = (unsafe { text_bytes(reference) }) else { return 0 };
-    // SAFETY: contract.
-    unsafe {
-        with_outputs(session, 0, |mut o| {
-            o.buffer_create_participant_ref(stream_id.rust(), object_id.rust(), domain_id, r, mode).unwrap_or(0)
-        })
-    }
+    uxr_buffer_create_replier_ref(participant_id: uxrObjectId, false);
+    /// `uxr_buffer_create_participant_ref` as eProsima's library declares it (with a domain).
+    uxr_buffer_create_participant_ref(domain_id: u16, false);
 }
 
 /// `uxr_buffer_create_participant_ref` as the seed's text writes it (no domain argument: domain 0); client.h
