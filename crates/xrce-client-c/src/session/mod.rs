@@ -186,27 +186,40 @@ pub unsafe fn with_outputs<R>(
     fallback: R,
     f: impl for<'x> FnOnce(Outputs<'x, 'static>) -> R,
 ) -> R {
+    // `f` is called at one place only and the outputs are found out of line, so each instance holds one copy
+    // of `f` and little else (firmware size).
     // SAFETY: contract.
-    let Some(slot) = (unsafe { self::slot(session) }) else { return fallback };
-    // SAFETY: an initialised slot; `in_callback` is only reached through shared references.
-    let lent = unsafe { &*addr_of!((*slot).in_callback) }.get();
-    // `f` is called at one place only, so each instance holds one copy of it (firmware size).
-    // SAFETY: non-null only while a callback runs, during which the outputs it points to are borrowed for the
-    // callback and reached by nothing else.
-    let (out, entered) = match unsafe { lent.as_mut() } {
-        Some(out) => (out.reborrow(), false),
-        None => {
-            // SAFETY: contract.
-            let Some(inner) = (unsafe { open_outputs(session) }) else { return fallback };
-            (inner.outputs(), true)
-        }
-    };
+    let Some((out, entered)) = (unsafe { outputs_of(session) }) else { return fallback };
     let result = f(out);
     if entered {
-        // SAFETY: entered by `open_outputs`; the outputs borrowed from the session were consumed by `f`.
+        // SAFETY: entered by `outputs_of`; the outputs borrowed from the session were consumed by `f`.
         unsafe { leave(session) };
     }
     result
+}
+
+/// The outputs [`with_outputs`] runs on, and whether the session was entered for them (then [`leave`] follows);
+/// `None` when there are none. Out of line: one copy for every `with_outputs` instance (firmware size).
+///
+/// # Safety
+/// `session` is null or points to a `uxrSession`; the outputs are used only until [`leave`] or, lent ones, while
+/// the callback that lent them runs.
+#[inline(never)]
+unsafe fn outputs_of<'s>(session: *mut uxrSession) -> Option<(Outputs<'s, 'static>, bool)> {
+    // SAFETY: contract.
+    let slot = unsafe { self::slot(session) }?;
+    // SAFETY: an initialised slot; `in_callback` is only reached through shared references.
+    let lent = unsafe { &*addr_of!((*slot).in_callback) }.get();
+    // SAFETY: non-null only while a callback runs, during which the outputs it points to are borrowed for the
+    // callback and reached by nothing else.
+    match unsafe { lent.as_mut() } {
+        Some(out) => Some((out.reborrow(), false)),
+        None => {
+            // SAFETY: contract.
+            let inner = unsafe { open_outputs(session) }?;
+            Some((inner.outputs(), true))
+        }
+    }
 }
 
 /// The session's own outputs for [`with_outputs`]: a sample still being serialized through a window goes into
