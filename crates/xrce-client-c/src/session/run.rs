@@ -38,21 +38,29 @@ macro_rules! run_fn {
 #[no_mangle]
 pub unsafe extern "C" fn uxr_create_session(session: *mut uxrSession) -> bool {
     // SAFETY: contract.
-    unsafe { session_request(session, |s| s.create_session().map(|()| true)) }
+    unsafe { session_request(session, false, xrce_client::session::CREATE_SESSION_ATTEMPTS) }
 }
 
-/// Runs a create or delete of the session and records its status in `info.last_requested_status`, as
-/// eProsima's library does: `UXR_STATUS_OK`, the agent's refusal, or `UXR_STATUS_NONE` without an answer.
+/// Runs a create (`delete` false) or delete of the session with `attempts` sends and records its status in
+/// `info.last_requested_status`, as eProsima's library does: `UXR_STATUS_OK`, the agent's refusal, or
+/// `UXR_STATUS_NONE` without an answer. One function for the four entry points (firmware size).
 ///
 /// # Safety
 /// `session` null or a `uxrSession`.
-unsafe fn session_request(session: *mut uxrSession, f: impl FnOnce(&mut Inner) -> xrce_client::Result<bool>) -> bool {
+#[inline(never)]
+unsafe fn session_request(session: *mut uxrSession, delete: bool, attempts: usize) -> bool {
     // SAFETY: contract.
     let (ok, status) = unsafe {
-        sending(session, (false, STATUS_NONE), |s| match f(s) {
-            Ok(done) => (done, if done { 0 } else { STATUS_NONE }),
-            Err(xrce_client::Error::Refused(code)) => (false, code),
-            Err(_) => (false, STATUS_NONE),
+        sending(session, (false, STATUS_NONE), |s| {
+            match if delete {
+                s.delete_session_retries(attempts)
+            } else {
+                s.create_session_retries(attempts).map(|()| true)
+            } {
+                Ok(done) => (done, if done { 0 } else { STATUS_NONE }),
+                Err(xrce_client::Error::Refused(code)) => (false, code),
+                Err(_) => (false, STATUS_NONE),
+            }
         })
     };
     // SAFETY: contract; a named field.
@@ -71,7 +79,7 @@ pub unsafe extern "C" fn uxr_create_session_retries(session: *mut uxrSession, re
         return false;
     }
     // SAFETY: contract.
-    unsafe { session_request(session, |s| s.create_session_retries(retries).map(|()| true)) }
+    unsafe { session_request(session, false, retries) }
 }
 
 /// `uxr_delete_session`: whether the agent confirmed.
@@ -81,7 +89,7 @@ pub unsafe extern "C" fn uxr_create_session_retries(session: *mut uxrSession, re
 #[no_mangle]
 pub unsafe extern "C" fn uxr_delete_session(session: *mut uxrSession) -> bool {
     // SAFETY: contract.
-    unsafe { session_request(session, Inner::delete_session) }
+    unsafe { session_request(session, true, xrce_client::session::CREATE_SESSION_ATTEMPTS) }
 }
 
 /// `uxr_delete_session_retries`.
@@ -95,7 +103,7 @@ pub unsafe extern "C" fn uxr_delete_session_retries(session: *mut uxrSession, re
         return false;
     }
     // SAFETY: contract.
-    unsafe { session_request(session, |s| s.delete_session_retries(retries)) }
+    unsafe { session_request(session, true, retries) }
 }
 
 /// `uxr_flash_output_streams`.
