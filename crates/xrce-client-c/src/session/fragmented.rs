@@ -267,8 +267,9 @@ unsafe fn start(
         };
         match started {
             Ok(request) => break request,
-            // The history is full now: as eProsima's library, let the flush callback make room first.
-            Err(xrce_client::Error::WouldBlock) if flushes < MAX_FLUSHES => {
+            // The history is full now: as eProsima's library, let the flush callback make room first (none for
+            // a write checked to fit: matched here, so that path holds no flush loop).
+            Err(xrce_client::Error::WouldBlock) if flushes < MAX_FLUSHES && !matches!(flush, Flush::Never) => {
                 flushes += 1;
                 // SAFETY: the session is not busy here (contract).
                 if unsafe { flush.call(session) } != Some(true) {
@@ -278,7 +279,11 @@ unsafe fn start(
             Err(_) => return 0,
         }
     };
-    *fragment = Fragment { active: true, stream, flush, left: data_size, ..Fragment::idle() };
+    // Field by field: `next_window` zeroes the window (one clear, not two).
+    fragment.active = true;
+    fragment.stream = stream;
+    fragment.flush = flush;
+    fragment.left = data_size;
     fragment.next_window(ub);
     ub.on_full_buffer = Some(on_window_full);
     ub.args = session.cast();
