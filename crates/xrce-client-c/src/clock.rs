@@ -51,7 +51,8 @@ impl xrce_client::Clock for SysClock {
         if unsafe { posix::clock_gettime(posix::CLOCK_REALTIME, &mut ts) } != 0 {
             return 0;
         }
-        ts.tv_sec.saturating_mul(1_000_000_000).saturating_add(i64::from(ts.tv_nsec))
+        // Wrapping: the product overflows only after the year 2262 (64-bit multiply without the overflow checks).
+        ts.tv_sec.wrapping_mul(1_000_000_000).wrapping_add(i64::from(ts.tv_nsec))
     }
 }
 
