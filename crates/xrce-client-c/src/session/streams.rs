@@ -2,9 +2,8 @@
 //! them in the session's `streams` table.
 
 use super::public::uxrReliableStream;
-use super::{uxrSession, with_session, Inner};
+use super::{uxrSession, with_session};
 use crate::abi::{uxrStreamId, INPUT_STREAM, OUTPUT_STREAM};
-use xrce_client::{Result, StreamId};
 
 /// Records a new stream in `session->streams`: its memory in slot `index` of its kind, and the count.
 ///
@@ -42,20 +41,24 @@ unsafe fn record(session: *mut uxrSession, id: uxrStreamId, buffer: *mut u8, siz
     }
 }
 
-/// Lends `size` bytes at `buffer` to the session and creates a stream over them with `create`; the "none"
-/// stream on any failure (null memory, too many streams, a history that does not divide the buffer).
+/// The streams made over memory the program lends.
+#[derive(Clone, Copy)]
+enum Lent {
+    OutputBestEffort,
+    OutputReliable,
+    InputReliable,
+}
+
+/// Lends `size` bytes at `buffer` to the session and creates a stream of `kind` over them; the "none" stream on
+/// any failure (null memory, too many streams, a history that does not divide the buffer). One out-of-line
+/// function for the three entry points (firmware size).
 ///
 /// # Safety
 /// `session` null or a `uxrSession`; `buffer` null or `size` writable bytes that outlive the session and that
 /// the program no longer touches.
-unsafe fn lend(
-    session: *mut uxrSession,
-    buffer: *mut u8,
-    size: usize,
-    history: u16,
-    direction: u32,
-    create: impl FnOnce(&mut Inner, &'static mut [u8]) -> Result<StreamId>,
-) -> uxrStreamId {
+#[inline(never)]
+unsafe fn lend(session: *mut uxrSession, buffer: *mut u8, size: usize, history: u16, kind: Lent) -> uxrStreamId {
+    let direction = if matches!(kind, Lent::InputReliable) { INPUT_STREAM } else { OUTPUT_STREAM };
     let none = uxrStreamId::none(direction);
     if buffer.is_null() || size == 0 {
         return none;
@@ -64,7 +67,14 @@ unsafe fn lend(
     let memory = unsafe { core::slice::from_raw_parts_mut(buffer, size) };
     // SAFETY: contract.
     let id = unsafe {
-        with_session(session, none, |s| create(s, memory).map_or(none, |id| uxrStreamId::from_rust(id, direction)))
+        with_session(session, none, |s| {
+            match kind {
+                Lent::OutputBestEffort => s.create_output_best_effort_stream(memory),
+                Lent::OutputReliable => s.create_output_reliable_stream(memory, history.into()),
+                Lent::InputReliable => s.create_input_reliable_stream(memory, history.into()),
+            }
+            .map_or(none, |id| uxrStreamId::from_rust(id, direction))
+        })
     };
     if id.raw != 0 {
         // SAFETY: contract: a session (the stream was created in it).
@@ -84,7 +94,7 @@ pub unsafe extern "C" fn uxr_create_output_best_effort_stream(
     size: usize,
 ) -> uxrStreamId {
     // SAFETY: contract.
-    unsafe { lend(session, buffer, size, 0, OUTPUT_STREAM, |s, m| s.create_output_best_effort_stream(m)) }
+    unsafe { lend(session, buffer, size, 0, Lent::OutputBestEffort) }
 }
 
 /// `uxr_create_output_reliable_stream`: `history` a power of two dividing `size`.
@@ -99,9 +109,7 @@ pub unsafe extern "C" fn uxr_create_output_reliable_stream(
     history: u16,
 ) -> uxrStreamId {
     // SAFETY: contract.
-    unsafe {
-        lend(session, buffer, size, history, OUTPUT_STREAM, |s, m| s.create_output_reliable_stream(m, history.into()))
-    }
+    unsafe { lend(session, buffer, size, history, Lent::OutputReliable) }
 }
 
 /// `uxr_create_input_best_effort_stream`.
@@ -136,7 +144,5 @@ pub unsafe extern "C" fn uxr_create_input_reliable_stream(
     history: u16,
 ) -> uxrStreamId {
     // SAFETY: contract.
-    unsafe {
-        lend(session, buffer, size, history, INPUT_STREAM, |s, m| s.create_input_reliable_stream(m, history.into()))
-    }
+    unsafe { lend(session, buffer, size, history, Lent::InputReliable) }
 }
