@@ -65,7 +65,7 @@ impl ucdrBuffer {
         (self.final_ as usize).saturating_sub(self.iterator as usize)
     }
 
-    /// Makes room for `n` bytes aligned to `align` (a power of two) and moves past them: where they start, or
+    /// Makes room for `n` bytes aligned to `align` (a power of two, or 0) and moves past them: where they start, or
     /// `None` (and `error` set) when they do not fit and `on_full_buffer` cannot make room.
     pub fn take(&mut self, align: usize, n: usize) -> Option<*mut u8> {
         if self.error {
@@ -73,7 +73,8 @@ impl ucdrBuffer {
         }
         let mut asked_for_room = false;
         loop {
-            let pad = alignment(self.offset, align);
+            // `align` is a power of two here (1, 2, 4, 8): a mask, no division.
+            let pad = self.offset.wrapping_neg() & align.saturating_sub(1);
             if pad + n <= self.remaining() {
                 self.iterator = self.iterator.wrapping_add(pad);
                 let at = self.iterator;
