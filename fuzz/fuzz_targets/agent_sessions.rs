@@ -6,7 +6,7 @@
 //! on a clean link: a client writes samples reliably to its own reader, and each must arrive once, in order.
 #![no_main]
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use libfuzzer_sys::fuzz_target;
@@ -86,7 +86,9 @@ fn clean_link(core: &mut AgentCore<u8, Ced>, clients: &mut [Client; CLIENTS], no
 
 fuzz_target!(|steps: Vec<Step>| {
     let config = config();
-    let store = ProfileStore::from_xml_str(xrce_fuzz::sessions::REFS).unwrap_or_default();
+    // Parsed once: the refs file is the same for every input (12 % of the time when parsed per input).
+    static REFS: OnceLock<ProfileStore> = OnceLock::new();
+    let store = REFS.get_or_init(|| ProfileStore::from_xml_str(xrce_fuzz::sessions::REFS).unwrap_or_default()).clone();
     let mut core = AgentCore::new(config.clone(), Ced::new(Arc::new(StoreProfiles::with_store(store))));
     let mut clients: [Client; CLIENTS] = core::array::from_fn(Client::new);
     let mut now = Instant::now();
