@@ -596,6 +596,8 @@ impl<'a> OutputReliable<'a> {
     /// An ACKNACK for this stream: release what is acknowledged, then schedule a resend of each NACKed message
     /// (bit i ↔ `first_unacked + i`) that is still unacknowledged and was not retransmitted within
     /// [`retransmit_interval`](Self::retransmit_interval). Without NACK bits nothing is resent.
+    // Out of line: inlined into the session's submessage loop it cost a Cortex-M4 52 more bytes (registers).
+    #[inline(never)]
     pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
         let ack = AckNackBits { first_unacked: SeqNum(first_unacked), bitmap };
         let first = self.sender.last_acked().next().0;
