@@ -122,6 +122,8 @@ impl Slots<'_> {
 }
 
 impl SendLog for Slots<'_> {
+    // Inlined at its five callers: out of line it cost a Cortex-M4 114 more bytes (C library), 132 (Rust).
+    #[inline(always)]
     fn since_sent(&self, seq: SeqNum, now: Instant) -> Option<(Duration, bool)> {
         let flags = self.flags(seq.0);
         if flags & SENT == 0 {
