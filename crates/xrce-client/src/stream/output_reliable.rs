@@ -89,8 +89,8 @@ impl Slots<'_> {
 
     fn set_word(&mut self, seq_nr: u16, half: usize, v: u16) {
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot + half;
-        if let Some(dst) = self.buf.get_mut(at..at + 2) {
-            xrce_proto::bytes::copy(dst, &v.to_le_bytes());
+        if let Some(dst) = self.buf.get_mut(at..).and_then(<[u8]>::first_chunk_mut::<2>) {
+            *dst = v.to_le_bytes();
         }
     }
 
@@ -104,8 +104,8 @@ impl Slots<'_> {
     fn set(&mut self, seq_nr: u16, len: usize, flags: u16) {
         let word = u32::from(u16::try_from(len).unwrap_or(0)) | u32::from(flags) << 16;
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot;
-        if let Some(dst) = self.buf.get_mut(at..at + SLOT_LEN_WORD) {
-            xrce_proto::bytes::copy(dst, &word.to_le_bytes());
+        if let Some(dst) = self.buf.get_mut(at..).and_then(<[u8]>::first_chunk_mut::<SLOT_LEN_WORD>) {
+            *dst = word.to_le_bytes();
         }
     }
 
