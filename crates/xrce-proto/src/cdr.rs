@@ -212,10 +212,10 @@ impl<'a> Reader<'a> {
     /// Reads a fixed-size raw byte array (no alignment).
     #[inline]
     pub fn read_array<const N: usize>(&mut self) -> Result<[u8; N]> {
-        let bytes = self.read_bytes(N)?;
-        let mut out = [0u8; N];
-        crate::bytes::copy(&mut out, bytes);
-        Ok(out)
+        let bytes = self.buf.get(self.pos..).and_then(<[u8]>::first_chunk::<N>).ok_or(Error::Truncated)?;
+        // `pos + N` is at most the buffer's length: no overflow.
+        self.pos += N;
+        Ok(*bytes)
     }
 
     /// Reads one byte.
@@ -479,15 +479,15 @@ impl<'b> Writer<'b> {
             Endianness::Little => v.to_le_bytes(),
             Endianness::Big => v.to_be_bytes(),
         };
-        if let Some(dst) = self.buf.get_mut(at..at.saturating_add(4)) {
-            crate::bytes::copy(dst, &bytes);
+        if let Some(dst) = self.buf.get_mut(at..).and_then(<[u8]>::first_chunk_mut::<4>) {
+            *dst = bytes;
         }
     }
 
     /// Overwrites two bytes at `at` with `v` little endian (used to patch lengths after the fact).
     pub fn patch_u16_le(&mut self, at: usize, v: u16) {
-        if let Some(dst) = self.buf.get_mut(at..at.saturating_add(2)) {
-            crate::bytes::copy(dst, &v.to_le_bytes());
+        if let Some(dst) = self.buf.get_mut(at..).and_then(<[u8]>::first_chunk_mut::<2>) {
+            *dst = v.to_le_bytes();
         }
     }
 }
