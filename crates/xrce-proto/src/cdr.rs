@@ -125,8 +125,10 @@ macro_rules! read_prim {
         #[doc = concat!("Reads an aligned `", stringify!($t), "`.")]
         #[inline]
         pub fn $name(&mut self) -> Result<$t> {
-            self.align($n)?;
-            let bytes: [u8; $n] = self.read_array()?;
+            // Aligned and read under one bounds check (the position moves only when the value is there).
+            let at = self.pos.saturating_add(padding(self.pos.wrapping_sub(self.origin), $n));
+            let bytes = *self.buf.get(at..).and_then(<[u8]>::first_chunk::<$n>).ok_or(Error::Truncated)?;
+            self.pos = at + $n;
             Ok(match self.endian {
                 Endianness::Little => <$t>::from_le_bytes(bytes),
                 Endianness::Big => <$t>::from_be_bytes(bytes),
@@ -700,6 +702,21 @@ impl<'a, T: Decode<'a> + Clone> Iterator for SeqIter<'a, '_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_truncated_primitive_leaves_the_position() {
+        // Padding fits, the value does not: an error, and the reader stays where it was.
+        let buf = [1u8, 0xAA, 2, 3, 4, 5];
+        let mut r = Reader::new(&buf, Endianness::Little);
+        assert_eq!(r.read_u8(), Ok(1));
+        assert_eq!(r.read_u32(), Err(Error::Truncated));
+        assert_eq!(r.position(), 1);
+        assert_eq!(r.read_u16(), Ok(0x0302));
+        assert_eq!(r.read_u32(), Err(Error::Truncated));
+        assert_eq!(r.position(), 4);
+        assert_eq!(r.read_u16(), Ok(0x0504));
+        assert_eq!(r.position(), 6);
+    }
 
     #[test]
     fn alignment_is_relative_to_origin() {
