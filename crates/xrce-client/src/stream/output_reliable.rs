@@ -133,6 +133,8 @@ impl SendLog for Slots<'_> {
         Some((Duration::from_millis(i64::from(elapsed)), flags & RESENT != 0))
     }
 
+    // Inlined at its two callers: out of line it cost a Cortex-M4 110 more bytes (C library), 92 (Rust).
+    #[inline(always)]
     fn stamp(&mut self, seq: SeqNum, now: Instant, retransmission: bool) {
         let old = self.flags(seq.0);
         let resent = if retransmission { RESENT } else { old & RESENT };
