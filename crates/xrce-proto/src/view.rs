@@ -314,9 +314,9 @@ impl FragmentHead {
 
     /// Writes the header at the start of `buf`; false (nothing written) when `buf` is shorter than it.
     pub fn set_in(self, buf: &mut [u8]) -> bool {
-        match buf.get_mut(..Self::SIZE) {
+        match buf.first_chunk_mut::<{ Self::SIZE }>() {
             Some(dst) => {
-                crate::bytes::copy(dst, &self.to_bytes());
+                *dst = self.to_bytes();
                 true
             }
             None => false,

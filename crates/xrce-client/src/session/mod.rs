@@ -724,6 +724,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// The next message to send, written to `out`; its length. Call until `None` after every input, every
     /// write and every timeout. `out` should hold the MTU.
+    // Out of line: 64 bytes less in the C library on a Cortex-M4 (40 more in the Rust publisher).
+    #[inline(never)]
     pub fn poll_transmit(&mut self, now: i64, out: &mut [u8]) -> Option<usize> {
         let st = &mut self.st;
         if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {

@@ -541,8 +541,8 @@ impl<'s, 'a> Outputs<'s, 'a> {
         let head = head(SubmessageId::WriteData, 0, request, entity, size)?;
         let region = reserve_in(best_effort, reliable, stream, RequestHead::SIZE + size)?;
         *last_request_id = request;
-        let (h, data) = region.split_at_mut_checked(RequestHead::SIZE).ok_or(Error::TooLarge)?;
-        xrce_proto::bytes::copy(h, &head);
+        let (h, data) = region.split_first_chunk_mut::<{ RequestHead::SIZE }>().ok_or(Error::TooLarge)?;
+        *h = head;
         Ok(Prepared { request_id: request, buf: data })
     }
 

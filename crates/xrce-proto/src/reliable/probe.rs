@@ -106,6 +106,8 @@ impl Probe {
     }
 
     /// Arms the probe unless armed; the instant to schedule, if it was armed now.
+    // Inlined at its three callers: out of line it cost a Cortex-M4 70 more bytes.
+    #[inline(always)]
     pub fn arm(&mut self, now: Instant, period: Duration) -> Option<Instant> {
         if self.due != Instant::NEVER {
             return None;

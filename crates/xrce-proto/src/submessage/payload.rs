@@ -1,6 +1,6 @@
 //! Payload types of the submessages (spec §6).
 
-use crate::cdr::{Decode, Encode, Error, Reader, Result, Seq, Writer};
+use crate::cdr::{Decode, Encode, Endianness, Error, Reader, Result, Seq, Writer};
 use crate::object::{AgentRepresentation, ObjectVariant};
 use crate::types::{
     codec_struct, BaseObjectReply, BaseObjectRequest, ResultStatus, SampleIdentity, Time, TransportLocator,
@@ -307,7 +307,24 @@ pub struct AckNack {
     /// The reliable stream acknowledged, as numbered by its sender.
     pub stream_id: u8,
 }
-codec_struct!(AckNack { first_unacked_seq_num: u16, nack_bitmap: [u8; 2], stream_id: u8 });
+
+// After the first `u16` the rest is read as one array (the second `u16` of a HEARTBEAT is aligned there).
+
+impl<'a> Decode<'a> for AckNack {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        let first_unacked_seq_num = r.read_u16()?;
+        let [b0, b1, stream_id] = r.read_array()?;
+        Ok(Self { first_unacked_seq_num, nack_bitmap: [b0, b1], stream_id })
+    }
+}
+
+impl Encode for AckNack {
+    fn encode(&self, w: &mut Writer<'_>) {
+        w.write_u16(self.first_unacked_seq_num);
+        w.write_bytes(&self.nack_bitmap);
+        w.write_u8(self.stream_id);
+    }
+}
 
 impl AckNack {
     /// The bitmap as a u16 whose bit i ↔ `first_unacked + i`.
@@ -338,7 +355,26 @@ pub struct Heartbeat {
     /// The sender's reliable output stream.
     pub stream_id: u8,
 }
-codec_struct!(Heartbeat { first_unacked_seq_nr: u16, last_unacked_seq_nr: u16, stream_id: u8 });
+
+impl<'a> Decode<'a> for Heartbeat {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        let first_unacked_seq_nr = r.read_u16()?;
+        let [l0, l1, stream_id] = r.read_array()?;
+        let last_unacked_seq_nr = match r.endianness() {
+            Endianness::Little => u16::from_le_bytes([l0, l1]),
+            Endianness::Big => u16::from_be_bytes([l0, l1]),
+        };
+        Ok(Self { first_unacked_seq_nr, last_unacked_seq_nr, stream_id })
+    }
+}
+
+impl Encode for Heartbeat {
+    fn encode(&self, w: &mut Writer<'_>) {
+        w.write_u16(self.first_unacked_seq_nr);
+        w.write_u16(self.last_unacked_seq_nr);
+        w.write_u8(self.stream_id);
+    }
+}
 
 /// TIMESTAMP_REPLY (24 bytes, in this order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
