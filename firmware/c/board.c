@@ -62,28 +62,37 @@ bool uart_read(uint8_t* byte) {
     return true;
 }
 
-int64_t board_nanos(void) {
+static void board_time(uint32_t* ms, uint32_t* sub_ns) {
     for (;;) {
         uint32_t before = ticks;
         uint32_t current = SYST_CVR;
         if (ticks == before) {
             uint32_t cycles = RELOAD - (current > RELOAD ? RELOAD : current);
-            return (int64_t)before * 1000000 + (int64_t)cycles * NS_PER_CYCLE;
+            *ms = before;
+            *sub_ns = cycles * NS_PER_CYCLE;
+            return;
         }
     }
 }
 
-int64_t board_millis(void) {
-    return board_nanos() / 1000000;
+int64_t board_nanos(void) {
+    uint32_t ms, ns;
+    board_time(&ms, &ns);
+    return (int64_t)ms * 1000000 + ns;
 }
 
-/* The platform's clock, as eProsima's client reads it on bare metal (and our library without a time source set
- * by uxr_set_time_source): CLOCK_REALTIME counts from reset here; time synchronisation gives the agent's. */
+int64_t board_millis(void) {
+    uint32_t ms, ns;
+    board_time(&ms, &ns);
+    return ms;
+}
+
 int clock_gettime(clockid_t clock, struct timespec* ts) {
     (void)clock;
-    int64_t ns = board_nanos();
-    ts->tv_sec = (time_t)(ns / 1000000000);
-    ts->tv_nsec = (long)(ns % 1000000000);
+    uint32_t ms, ns;
+    board_time(&ms, &ns);
+    ts->tv_sec = (time_t)(ms / 1000);
+    ts->tv_nsec = (long)((ms % 1000) * 1000000 + ns);
     return 0;
 }
 

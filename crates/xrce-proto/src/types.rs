@@ -354,7 +354,8 @@ pub struct Time {
 impl Time {
     /// Time from nanoseconds since the epoch.
     pub const fn from_nanos(ns: i64) -> Self {
-        Self { seconds: ns.div_euclid(1_000_000_000) as i32, nanoseconds: ns.rem_euclid(1_000_000_000) as u32 }
+        let (seconds, nanoseconds) = crate::reliable::div_floor_pow1000(ns, 3);
+        Self { seconds: seconds as i32, nanoseconds }
     }
 
     /// Nanoseconds since the epoch.

@@ -4,7 +4,7 @@
 #[cfg(feature = "std")]
 use super::replay::{Replay, Unacked};
 use super::{
-    Callbacks, Outputs, PingState, Reconnect, SessionCore, SessionEvent, SessionState, TimeSample, MILLIS,
+    millis, Callbacks, Outputs, PingState, Reconnect, SessionCore, SessionEvent, SessionState, TimeSample, MILLIS,
     SESSION_CONNECTION_INTERVAL_MS,
 };
 use crate::error::{Error, Result};
@@ -265,7 +265,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             }
             self.send_pending(core)?;
             let now = self.clock.now_nanos();
-            let wait = core.poll_timeout().map_or(100, |t| ((t - now).max(0) + MILLIS - 1) / MILLIS).min(100);
+            let wait = core.poll_timeout().map_or(100, |t| millis((t - now).max(0) + MILLIS - 1)).min(100);
             match self.transport.recv(&mut self.buf, i32::try_from(wait).unwrap_or(100)) {
                 Ok(Some(n)) => {
                     let now = self.clock.now_nanos();
@@ -302,7 +302,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             if let Some(reopen) = self.until_reopen(now) {
                 wait = Some(wait.map_or(reopen, |w| w.min(reopen)));
             }
-            let wait_ms = wait.map_or(-1, |ns| i32::try_from((ns + MILLIS - 1) / MILLIS).unwrap_or(i32::MAX));
+            let wait_ms = wait.map_or(-1, |ns| i32::try_from(millis(ns + MILLIS - 1)).unwrap_or(i32::MAX));
             if self.broken() {
                 // Nothing to read from a failed transport: wait for the next reopen or timer.
                 pause(wait_ms);
@@ -642,7 +642,7 @@ impl<
         if timeout_ms < 0 {
             return Some(-1);
         }
-        let elapsed = (self.now() - start) / MILLIS;
+        let elapsed = millis(self.now() - start);
         let left = i64::from(timeout_ms) - elapsed;
         (left > 0).then(|| i32::try_from(left).unwrap_or(i32::MAX))
     }
@@ -712,7 +712,7 @@ impl<
             let left = if timeout_ms < 0 {
                 -1
             } else {
-                let elapsed = (self.io.clock.now_nanos() - start) / MILLIS;
+                let elapsed = millis(self.io.clock.now_nanos() - start);
                 match i64::from(timeout_ms) - elapsed {
                     l if l > 0 => i32::try_from(l).unwrap_or(i32::MAX),
                     _ => return Ok(false),
@@ -791,7 +791,7 @@ impl<
         self.core.ping(period, usize::from(attempts), start);
         let deadline = start.saturating_add(period.saturating_mul(MILLIS).saturating_mul(i64::from(attempts.max(1))));
         while self.core.ping_state() == PingState::Pending {
-            let left_ms = (deadline - self.now() + MILLIS - 1) / MILLIS;
+            let left_ms = millis(deadline - self.now() + MILLIS - 1);
             if left_ms <= 0 {
                 break;
             }

@@ -34,6 +34,11 @@ use xrce_proto::{
 
 /// One millisecond in the core's time unit.
 pub const MILLIS: i64 = 1_000_000;
+
+/// `ns / MILLIS` (rounded toward zero) without a 64-bit division (see [`xrce_proto::reliable::div_trunc_pow1000`]).
+pub(crate) const fn millis(ns: i64) -> i64 {
+    xrce_proto::reliable::div_trunc_pow1000(ns, 2)
+}
 /// `UXR_CONFIG_MAX_SESSION_CONNECTION_ATTEMPTS`.
 pub const CREATE_SESSION_ATTEMPTS: usize = 10;
 /// `UXR_CONFIG_MIN_SESSION_CONNECTION_INTERVAL`, in milliseconds.
@@ -198,7 +203,9 @@ pub struct TimeSample {
 impl TimeSample {
     /// NTP offset, client minus agent: `((t0 + t3) - (t1 + t2)) / 2`, truncated toward zero like C.
     pub const fn offset(&self) -> i64 {
-        ((self.originate + self.current) - (self.received + self.transmit)) / 2
+        let twice = (self.originate + self.current) - (self.received + self.transmit);
+        // `twice / 2` as a shift (1 added to a negative odd value): LLVM's `-Oz` calls the 64-bit division.
+        (twice - (twice >> 63)) >> 1
     }
 }
 
@@ -630,7 +637,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// `uxr_epoch_millis`.
     pub const fn epoch_millis(&self, now: i64) -> i64 {
-        self.epoch_nanos(now) / MILLIS
+        millis(self.epoch_nanos(now))
     }
 
     // ---- I/O -------------------------------------------------------------------------------------------
@@ -1090,6 +1097,26 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                 st.synced = true;
             }
             _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{millis, TimeSample};
+
+    #[test]
+    fn time_offset_truncates_toward_zero() {
+        for twice in [0, 1, -1, 2, -2, 3, -3, 99_801, -99_801, i64::MAX, i64::MIN, i64::MIN + 1] {
+            let s = TimeSample { current: twice, originate: 0, received: 0, transmit: 0 };
+            assert_eq!(s.offset(), twice / 2, "{twice}");
+        }
+    }
+
+    #[test]
+    fn millis_truncates_toward_zero() {
+        for ns in [0, 1, 999_999, 1_000_000, -1, -999_999, -1_000_000, -1_000_001, i64::MAX, i64::MIN] {
+            assert_eq!(millis(ns), ns / 1_000_000, "{ns}");
         }
     }
 }

@@ -50,7 +50,7 @@ const STAMP_MASK: u16 = 0x1FFF;
 /// Milliseconds modulo 8192 at `now`.
 fn stamp_ms(now: Instant) -> u16 {
     // Masked to 13 bits: always fits.
-    (now.0.div_euclid(1000) & i64::from(STAMP_MASK)) as u16
+    (xrce_proto::reliable::div_floor_pow1000(now.0, 1).0 & i64::from(STAMP_MASK)) as u16
 }
 
 /// A fragmented submessage being written.

@@ -31,7 +31,7 @@ pub use output::{SendLog, Sender, DEFAULT_RETRANSMIT_FLOOR, MAX_RETRANSMIT_INTER
 pub use probe::{Probe, Rtt, PROBE_FLOOR};
 pub use seq::SeqNum;
 pub use slots::{InPlaceJoin, StoredFragment};
-pub use time::{Duration, Instant};
+pub use time::{div_floor_pow1000, div_trunc_pow1000, Duration, Instant};
 
 /// Size of a FRAGMENT submessage header.
 pub const FRAGMENT_HEADER: usize = crate::SubmessageHeader::SIZE;

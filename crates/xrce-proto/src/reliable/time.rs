@@ -27,7 +27,7 @@ impl Instant {
 
     /// From nanoseconds since the epoch (truncated to the microsecond).
     pub const fn from_nanos(ns: i64) -> Self {
-        Self(ns / 1000)
+        Self(div_trunc_pow1000(ns, 1))
     }
 
     /// Nanoseconds since the epoch (wrapping past ±292 years: no check on a microcontroller's hot path).
@@ -53,7 +53,7 @@ impl Duration {
 
     /// From nanoseconds (truncated to the microsecond).
     pub const fn from_nanos(ns: i64) -> Self {
-        Self(ns / 1000)
+        Self(div_trunc_pow1000(ns, 1))
     }
 
     /// Nanoseconds (wrapping past ±292 years).
@@ -69,6 +69,51 @@ impl Duration {
     }
 }
 
+/// `(n.div_euclid(1000^k), n.rem_euclid(1000^k))` for `k` in `0..=3`, with 32-bit divisions only.
+///
+/// A Cortex-M divides 32-bit numbers in one instruction but an `i64` by a constant through compiler-builtins'
+/// 64-bit division (~1 KB of code); the engine only ever divides times by powers of 1000. The quotient is
+/// exact: `k` long divisions by 1000 in 16-bit digits (each partial dividend is below `1000 × 2^16 < 2^32`),
+/// and `⌊⌊n/a⌋/b⌋ = ⌊n/(ab)⌋`. A negative `n` is divided as `!n = -n - 1 ≥ 0`: `⌊n/d⌋ = !⌊!n/d⌋`.
+#[inline(never)]
+pub const fn div_floor_pow1000(n: i64, k: u32) -> (i64, u32) {
+    let neg = n < 0;
+    let mut q = (if neg { !n } else { n }) as u64;
+    let mut rem = 0u32;
+    let mut scale = 1u32;
+    let mut round = 0;
+    while round < k && round < 3 {
+        let mut r = 0u32;
+        let mut quotient = 0u64;
+        let mut shift = 64;
+        while shift > 0 {
+            shift -= 16;
+            let part = r << 16 | ((q >> shift) as u32 & 0xFFFF);
+            quotient = quotient << 16 | (part / 1000) as u64;
+            r = part % 1000;
+        }
+        q = quotient;
+        rem += r * scale;
+        scale *= 1000;
+        round += 1;
+    }
+    if neg {
+        (!(q as i64), scale - 1 - rem)
+    } else {
+        (q as i64, rem)
+    }
+}
+
+/// `n / 1000^k` rounded toward zero (Rust's and C's `/`), `k` in `0..=3`, without a 64-bit division.
+pub const fn div_trunc_pow1000(n: i64, k: u32) -> i64 {
+    let (q, r) = div_floor_pow1000(n, k);
+    if n < 0 && r != 0 {
+        q + 1
+    } else {
+        q
+    }
+}
+
 impl Add<Duration> for Instant {
     type Output = Self;
     fn add(self, d: Duration) -> Self {
@@ -80,5 +125,42 @@ impl Sub<Duration> for Instant {
     type Output = Self;
     fn sub(self, d: Duration) -> Self {
         Self(self.0.saturating_sub(d.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(n: i64) {
+        let mut d = 1i64;
+        for k in 0..=3 {
+            assert_eq!(div_floor_pow1000(n, k), (n.div_euclid(d), n.rem_euclid(d) as u32), "{n} / 1000^{k}");
+            assert_eq!(div_trunc_pow1000(n, k), n / d, "{n} / 1000^{k}");
+            d *= 1000;
+        }
+    }
+
+    #[test]
+    fn division_by_powers_of_1000_is_exact() {
+        let edges: [i64; 11] =
+            [0, 1, 999, 1000, 1001, 999_999, 1_000_000, 999_999_999, 1_000_000_000, 1 << 32, (1 << 48) - 1];
+        for e in edges {
+            for n in [e, -e, e.wrapping_add(1), e.wrapping_sub(1), -e - 1] {
+                check(n);
+            }
+        }
+        for n in [i64::MIN, i64::MIN + 1, i64::MAX, i64::MAX - 1, i64::MAX - 999] {
+            check(n);
+        }
+        // A deterministic spread over the whole range and around multiples of 1000.
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            let n = x as i64;
+            check(n);
+            check(n >> (x % 63));
+            check((n >> 20) * 1000);
+        }
     }
 }
