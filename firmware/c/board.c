@@ -87,6 +87,10 @@ int64_t board_millis(void) {
     return ms;
 }
 
+/* The platform's clock, as eProsima's client reads it on bare metal (and our library without a time source set
+ * by uxr_set_time_source): CLOCK_REALTIME counts from reset here; time synchronisation gives the agent's. Milliseconds
+ * and the nanoseconds below them come from the tick counter apart, so nothing divides a 64-bit value (a 1,000-byte
+ * library routine on Cortex-M). */
 int clock_gettime(clockid_t clock, struct timespec* ts) {
     (void)clock;
     uint32_t ms, ns;
