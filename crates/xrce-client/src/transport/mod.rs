@@ -5,7 +5,7 @@
 
 use core::fmt;
 
-use xrce_proto::framing::serial::{AddressFilter, Event, FrameBytes, FrameDecoder};
+use xrce_proto::framing::serial::{AddressFilter, FrameParser, ESCAPE, ESCAPE_XOR, FLAG};
 
 #[cfg(all(feature = "can", target_os = "linux"))]
 pub mod can;
@@ -148,7 +148,7 @@ pub struct CustomTransport<IO, const MTU: usize = 512> {
     framing: bool,
     local_addr: u8,
     remote_addr: u8,
-    decoder: FrameDecoder<[u8; MTU]>,
+    decoder: FrameParser<[u8; MTU]>,
     chunk: [u8; CHUNK],
     chunk_pos: usize,
     chunk_len: usize,
@@ -172,7 +172,7 @@ impl<IO: CustomIo, const MTU: usize> CustomTransport<IO, MTU> {
             framing,
             local_addr,
             remote_addr,
-            decoder: FrameDecoder::new([0; MTU], AddressFilter::Only(local_addr)),
+            decoder: FrameParser::new([0; MTU], AddressFilter::Only(local_addr)),
             chunk: [0; CHUNK],
             chunk_pos: 0,
             chunk_len: 0,
@@ -239,18 +239,37 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                 _ => Err(TransportError::ShortWrite),
             };
         }
-        let frame =
-            FrameBytes::new(self.local_addr, self.remote_addr, msg).map_err(|_| TransportError::MessageTooLarge)?;
+        // The frame's bytes (as `FrameBytes` yields them) escaped straight into a chunk, no iterator state
+        // (firmware size).
+        let len = u16::try_from(msg.len()).map_err(|_| TransportError::MessageTooLarge)?;
+        let [len_lo, len_hi] = len.to_le_bytes();
+        let header = [self.local_addr, self.remote_addr, len_lo, len_hi];
+        let crc = xrce_proto::framing::crc16(msg).to_le_bytes();
         let mut buf = [0u8; CHUNK];
-        let mut n = 0;
-        for byte in frame {
-            if let Some(slot) = buf.get_mut(n) {
-                *slot = byte;
-                n += 1;
-            }
-            if n == CHUNK {
-                self.write_all(&buf)?;
-                n = 0;
+        let mut n = 1;
+        if let Some(first) = buf.first_mut() {
+            *first = FLAG;
+        }
+        for part in [&header[..], msg, &crc[..]] {
+            for &byte in part {
+                // An escaped byte goes as ESCAPE, then itself xored.
+                let mut escape = byte == FLAG || byte == ESCAPE;
+                let mut out = if escape { ESCAPE } else { byte };
+                loop {
+                    if let Some(slot) = buf.get_mut(n) {
+                        *slot = out;
+                        n += 1;
+                    }
+                    if n == CHUNK {
+                        self.write_all(&buf)?;
+                        n = 0;
+                    }
+                    if !escape {
+                        break;
+                    }
+                    escape = false;
+                    out = byte ^ ESCAPE_XOR;
+                }
             }
         }
         self.write_all(buf.get(..n).unwrap_or(&[]))
@@ -264,6 +283,7 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
             let n = self.io.read(buf, timeout_ms)?;
             return Ok((n > 0).then_some(n));
         }
+        // One byte at a time through the parser, which has no error to report (firmware size).
         loop {
             if self.chunk_pos >= self.chunk_len {
                 let n = self.io.read(&mut self.chunk, timeout_ms)?;
@@ -273,10 +293,9 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                 self.chunk_pos = 0;
                 self.chunk_len = n.min(CHUNK);
             }
-            let input = self.chunk.get(self.chunk_pos..self.chunk_len).unwrap_or(&[]);
-            let (used, event) = self.decoder.feed(input);
-            self.chunk_pos += used;
-            if let Some(Event::Frame { src, payload, .. }) = event {
+            let raw = self.chunk.get(self.chunk_pos).copied().unwrap_or(0);
+            self.chunk_pos += 1;
+            if let Some((src, payload)) = self.decoder.push_byte(raw) {
                 if src != self.remote_addr {
                     continue;
                 }

@@ -291,6 +291,169 @@ enum State {
     CrcHi,
 }
 
+/// What one byte did to a [`FrameParser`].
+#[derive(Debug, Clone, Copy)]
+enum Step {
+    /// Skipped while hunting for a flag.
+    Skip,
+    /// A flag: a frame starts; `interrupted` if one was in progress past its flag.
+    Start { interrupted: bool },
+    /// Taken into the frame in progress.
+    Byte,
+    /// The frame's destination is not the filter's: dropped.
+    Filtered,
+    /// The frame announces more payload than the buffer holds: dropped.
+    Oversized { len: u16, capacity: usize },
+    /// The frame's CRC does not match: dropped.
+    Crc { computed: u16, received: u16 },
+    /// A whole frame with a good CRC, its payload this long.
+    Frame(usize),
+}
+
+/// The serial framing's state machine alone: no counters and no error reports (bad frames are dropped, and
+/// parsing resumes at the next flag, as in [`FrameDecoder`]). For transports that only want the frames, one
+/// byte at a time (firmware size).
+///
+/// ```
+/// use xrce_proto::framing::serial::{encode_frame, AddressFilter, FrameParser};
+///
+/// let mut wire = [0u8; 64];
+/// let n = encode_frame(1, 0, &[0x80, 0x00, 0x00, 0x00], &mut wire).unwrap();
+/// let mut parser = FrameParser::new([0u8; 512], AddressFilter::Only(0));
+/// let mut frames = 0;
+/// for &b in &wire[..n] {
+///     if let Some((src, payload)) = parser.push_byte(b) {
+///         assert_eq!((src, payload), (1, &[0x80, 0x00, 0x00, 0x00][..]));
+///         frames += 1;
+///     }
+/// }
+/// assert_eq!(frames, 1);
+/// ```
+#[derive(Debug, Clone)]
+pub struct FrameParser<B> {
+    buf: B,
+    filter: AddressFilter,
+    state: State,
+    /// The previous byte was an escape.
+    escaped: bool,
+    src: u8,
+    dst: u8,
+    len: u16,
+    pos: usize,
+    crc: Crc16,
+    crc_lo: u8,
+}
+
+impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameParser<B> {
+    /// A parser hunting for its first flag, storing payloads in `buf` (the largest payload accepted) and
+    /// delivering frames that pass `filter`.
+    pub const fn new(buf: B, filter: AddressFilter) -> Self {
+        Self {
+            buf,
+            filter,
+            state: State::Hunting,
+            escaped: false,
+            src: 0,
+            dst: 0,
+            len: 0,
+            pos: 0,
+            crc: Crc16::new(),
+            crc_lo: 0,
+        }
+    }
+
+    /// Takes one raw byte; the sender's address and the payload when it completes a good frame (the payload
+    /// borrows the parser's buffer until the next byte).
+    pub fn push_byte(&mut self, raw: u8) -> Option<(u8, &[u8])> {
+        match self.step(raw) {
+            Step::Frame(len) => Some((self.src, self.buf.as_ref().get(..len).unwrap_or(&[]))),
+            _ => None,
+        }
+    }
+
+    /// Forgets any frame in progress and hunts for the next flag.
+    pub fn reset(&mut self) {
+        self.state = State::Hunting;
+        self.escaped = false;
+    }
+
+    /// Processes one raw byte.
+    fn step(&mut self, raw: u8) -> Step {
+        if raw == FLAG {
+            // Anything after a previous flag is lost; only report it if there was more than that flag (a
+            // frame still at its source byte has taken nothing else, unless an escape).
+            let interrupted = self.state != State::Hunting && (self.state != State::Src || self.escaped);
+            self.state = State::Src;
+            self.escaped = false;
+            self.pos = 0;
+            self.crc = Crc16::new();
+            return Step::Start { interrupted };
+        }
+        if self.state == State::Hunting {
+            return Step::Skip;
+        }
+        if raw == ESCAPE && !self.escaped {
+            self.escaped = true;
+            return Step::Byte;
+        }
+        // Like eProsima, any byte after an escape is unescaped by the xor, not only 0x5E and 0x5D.
+        let byte = if self.escaped { raw ^ ESCAPE_XOR } else { raw };
+        self.escaped = false;
+        match self.state {
+            State::Hunting => {}
+            State::Src => {
+                self.src = byte;
+                self.state = State::Dst;
+            }
+            State::Dst => {
+                self.dst = byte;
+                if !self.filter.accepts(byte) {
+                    self.state = State::Hunting;
+                    return Step::Filtered;
+                }
+                self.state = State::LenLo;
+            }
+            State::LenLo => {
+                self.len = u16::from(byte);
+                self.state = State::LenHi;
+            }
+            State::LenHi => {
+                self.len |= u16::from(byte) << 8;
+                let capacity = self.buf.as_ref().len();
+                if usize::from(self.len) > capacity {
+                    self.state = State::Hunting;
+                    return Step::Oversized { len: self.len, capacity };
+                }
+                self.state = if self.len == 0 { State::CrcLo } else { State::Payload };
+            }
+            State::Payload => {
+                if let Some(slot) = self.buf.as_mut().get_mut(self.pos) {
+                    *slot = byte;
+                }
+                self.crc.update_byte(byte);
+                self.pos += 1;
+                if self.pos >= usize::from(self.len) {
+                    self.state = State::CrcLo;
+                }
+            }
+            State::CrcLo => {
+                self.crc_lo = byte;
+                self.state = State::CrcHi;
+            }
+            State::CrcHi => {
+                self.state = State::Hunting;
+                let received = u16::from_le_bytes([self.crc_lo, byte]);
+                let computed = self.crc.finish();
+                if received != computed {
+                    return Step::Crc { computed, received };
+                }
+                return Step::Frame(usize::from(self.len));
+            }
+        }
+        Step::Byte
+    }
+}
+
 /// What one byte completed, before it is turned into a borrowing [`Event`].
 enum Outcome {
     Frame(usize),
@@ -302,7 +465,8 @@ enum Outcome {
 ///
 /// Bytes go in as they arrive, in chunks of any size, through [`feed`](Self::feed) (one event at a time, for
 /// a loop) or [`push`](Self::push) (a callback per event). Garbage before a flag is skipped, an unescaped flag
-/// anywhere restarts the frame, and after any error the decoder hunts for the next flag.
+/// anywhere restarts the frame, and after any error the decoder hunts for the next flag. A [`FrameParser`]
+/// that also reports errors and keeps counters.
 ///
 /// ```
 /// use xrce_proto::framing::serial::{encode_frame, AddressFilter, Event, FrameDecoder};
@@ -322,17 +486,7 @@ enum Outcome {
 /// ```
 #[derive(Debug, Clone)]
 pub struct FrameDecoder<B> {
-    buf: B,
-    filter: AddressFilter,
-    state: State,
-    /// The previous byte was an escape.
-    escaped: bool,
-    src: u8,
-    dst: u8,
-    len: u16,
-    pos: usize,
-    crc: Crc16,
-    crc_lo: u8,
+    parser: FrameParser<B>,
     /// Raw bytes of the frame in progress, flag included.
     raw_in_frame: usize,
     /// Diagnostics; may be read or reset freely.
@@ -352,35 +506,22 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
     /// A decoder hunting for its first flag, storing payloads in `buf` and delivering frames that pass
     /// `filter`.
     pub const fn new(buf: B, filter: AddressFilter) -> Self {
-        Self {
-            buf,
-            filter,
-            state: State::Hunting,
-            escaped: false,
-            src: 0,
-            dst: 0,
-            len: 0,
-            pos: 0,
-            crc: Crc16::new(),
-            crc_lo: 0,
-            raw_in_frame: 0,
-            stats: SerialStats::new(),
-        }
+        Self { parser: FrameParser::new(buf, filter), raw_in_frame: 0, stats: SerialStats::new() }
     }
 
     /// Largest payload accepted: the buffer's length.
     pub fn capacity(&self) -> usize {
-        self.buf.as_ref().len()
+        self.parser.buf.as_ref().len()
     }
 
     /// The destination filter in use.
     pub const fn filter(&self) -> AddressFilter {
-        self.filter
+        self.parser.filter
     }
 
     /// Changes the destination filter; applies from the next frame's destination byte on.
     pub fn set_filter(&mut self, filter: AddressFilter) {
-        self.filter = filter;
+        self.parser.filter = filter;
     }
 
     /// Raw bytes of an incomplete frame held back (0 when between frames).
@@ -392,11 +533,12 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
     /// the port was reopened.
     pub fn reset(&mut self) {
         self.drop_frame();
+        self.parser.reset();
     }
 
     /// Gives the buffer back.
     pub fn into_inner(self) -> B {
-        self.buf
+        self.parser.buf
     }
 
     /// Takes bytes from the front of `input` up to the first one that completes an event, and returns how
@@ -408,8 +550,8 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
             if let Some(outcome) = self.step(raw) {
                 let event = match outcome {
                     Outcome::Frame(len) => {
-                        let payload = self.buf.as_ref().get(..len).unwrap_or(&[]);
-                        Event::Frame { src: self.src, dst: self.dst, payload }
+                        let p = &self.parser;
+                        Event::Frame { src: p.src, dst: p.dst, payload: p.buf.as_ref().get(..len).unwrap_or(&[]) }
                     }
                     Outcome::Error(error) => Event::Error(error),
                 };
@@ -430,102 +572,54 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
         }
     }
 
-    /// Abandons the frame in progress and counts its bytes as dropped.
+    /// Counts the bytes of the frame in progress as dropped.
     fn drop_frame(&mut self) {
         add(&mut self.stats.bytes_dropped, self.raw_in_frame);
         self.raw_in_frame = 0;
-        self.state = State::Hunting;
-        self.escaped = false;
     }
 
-    /// Processes one raw byte.
+    /// Processes one raw byte: the parser's step, counted.
     fn step(&mut self, raw: u8) -> Option<Outcome> {
         add(&mut self.stats.bytes_received, 1);
-        if raw == FLAG {
-            // Anything after a previous flag is lost; only report it if there was more than that flag.
-            let interrupted = self.state != State::Hunting && self.raw_in_frame > 1;
-            self.drop_frame();
-            self.state = State::Src;
-            self.raw_in_frame = 1;
-            self.pos = 0;
-            self.crc = Crc16::new();
-            if interrupted {
-                add(&mut self.stats.interrupted, 1);
-                return Some(Outcome::Error(FrameError::Interrupted));
-            }
-            return None;
+        let step = self.parser.step(raw);
+        if !matches!(step, Step::Skip | Step::Start { .. }) {
+            self.raw_in_frame += 1;
         }
-        if self.state == State::Hunting {
-            add(&mut self.stats.bytes_dropped, 1);
-            return None;
-        }
-        self.raw_in_frame += 1;
-        if raw == ESCAPE && !self.escaped {
-            self.escaped = true;
-            return None;
-        }
-        // Like eProsima, any byte after an escape is unescaped by the xor, not only 0x5E and 0x5D.
-        let byte = if self.escaped { raw ^ ESCAPE_XOR } else { raw };
-        self.escaped = false;
-        match self.state {
-            State::Hunting => {}
-            State::Src => {
-                self.src = byte;
-                self.state = State::Dst;
+        let (counter, outcome) = match step {
+            Step::Byte => return None,
+            Step::Skip => {
+                add(&mut self.stats.bytes_dropped, 1);
+                return None;
             }
-            State::Dst => {
-                self.dst = byte;
-                if self.filter.accepts(byte) {
-                    self.state = State::LenLo;
-                } else {
-                    add(&mut self.stats.filtered, 1);
-                    self.drop_frame();
+            Step::Start { interrupted } => {
+                self.drop_frame();
+                self.raw_in_frame = 1;
+                if !interrupted {
+                    return None;
                 }
+                (&mut self.stats.interrupted, Outcome::Error(FrameError::Interrupted))
             }
-            State::LenLo => {
-                self.len = u16::from(byte);
-                self.state = State::LenHi;
+            Step::Filtered => {
+                add(&mut self.stats.filtered, 1);
+                self.drop_frame();
+                return None;
             }
-            State::LenHi => {
-                self.len |= u16::from(byte) << 8;
-                let capacity = self.capacity();
-                if usize::from(self.len) > capacity {
-                    add(&mut self.stats.oversized, 1);
-                    self.drop_frame();
-                    return Some(Outcome::Error(FrameError::Oversized { len: self.len, capacity }));
-                }
-                self.state = if self.len == 0 { State::CrcLo } else { State::Payload };
+            Step::Oversized { len, capacity } => {
+                self.drop_frame();
+                (&mut self.stats.oversized, Outcome::Error(FrameError::Oversized { len, capacity }))
             }
-            State::Payload => {
-                if let Some(slot) = self.buf.as_mut().get_mut(self.pos) {
-                    *slot = byte;
-                }
-                self.crc.update_byte(byte);
-                self.pos += 1;
-                if self.pos >= usize::from(self.len) {
-                    self.state = State::CrcLo;
-                }
+            Step::Crc { computed, received } => {
+                self.drop_frame();
+                (&mut self.stats.crc_errors, Outcome::Error(FrameError::Crc { computed, received }))
             }
-            State::CrcLo => {
-                self.crc_lo = byte;
-                self.state = State::CrcHi;
-            }
-            State::CrcHi => {
-                let received = u16::from_le_bytes([self.crc_lo, byte]);
-                let computed = self.crc.finish();
-                if received != computed {
-                    add(&mut self.stats.crc_errors, 1);
-                    self.drop_frame();
-                    return Some(Outcome::Error(FrameError::Crc { computed, received }));
-                }
-                add(&mut self.stats.frames_ok, 1);
+            Step::Frame(len) => {
                 add(&mut self.stats.bytes_in_frames, self.raw_in_frame);
                 self.raw_in_frame = 0;
-                self.state = State::Hunting;
-                return Some(Outcome::Frame(usize::from(self.len)));
+                (&mut self.stats.frames_ok, Outcome::Frame(len))
             }
-        }
-        None
+        };
+        add(counter, 1);
+        Some(outcome)
     }
 }
 
@@ -639,6 +733,36 @@ mod tests {
         let (used, event) = decoder.feed(&ESCAPED_FRAME);
         assert_eq!(used, ESCAPED_FRAME.len());
         assert_eq!(event, Some(Event::Frame { src: 0, dst: 0, payload: &ESCAPED_PAYLOAD }));
+    }
+
+    #[test]
+    fn parser_drops_bad_frames_silently() {
+        // A frame cut by a flag, one with a bad CRC, one for another address, then a good one.
+        let mut bad = CREATE_CLIENT_FRAME;
+        bad[10] ^= 0x01;
+        let mut other = [0u8; 64];
+        let n = encode_frame(0, 1, &CREATE_CLIENT, &mut other).unwrap();
+        let mut wire = [0u8; 160];
+        wire[..12].copy_from_slice(&CREATE_CLIENT_FRAME[..12]);
+        wire[12..43].copy_from_slice(&bad);
+        wire[43..43 + n].copy_from_slice(&other[..n]);
+        wire[43 + n..74 + n].copy_from_slice(&CREATE_CLIENT_FRAME);
+        let mut parser = FrameParser::new([0u8; 64], AddressFilter::Only(0));
+        let mut frames = 0;
+        for &b in &wire[..74 + n] {
+            if let Some((src, payload)) = parser.push_byte(b) {
+                assert_eq!((src, payload), (0, &CREATE_CLIENT[..]));
+                frames += 1;
+            }
+        }
+        assert_eq!(frames, 1);
+        let mut small = FrameParser::new([0u8; 16], AddressFilter::Any);
+        assert!(CREATE_CLIENT_FRAME.iter().all(|&b| small.push_byte(b).is_none()));
+        let frame = ESCAPED_FRAME.iter().filter_map(|&b| small.push_byte(b).map(|(_, p)| p.len())).next();
+        assert_eq!(frame, Some(8));
+        small.push_byte(FLAG);
+        small.reset();
+        assert!(ESCAPED_FRAME[1..].iter().all(|&b| small.push_byte(b).is_none()));
     }
 
     #[test]
