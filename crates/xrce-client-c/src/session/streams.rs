@@ -5,40 +5,9 @@ use super::public::uxrReliableStream;
 use super::{uxrSession, with_session};
 use crate::abi::{uxrStreamId, INPUT_STREAM, OUTPUT_STREAM};
 
-/// Records a new stream in `session->streams`: its memory in slot `index` of its kind, and the count.
-///
-/// # Safety
-/// `session` an initialised `uxrSession`.
-unsafe fn record(session: *mut uxrSession, id: uxrStreamId, buffer: *mut u8, size: usize, history: u16) {
-    let index = usize::from(id.index);
-    let base = uxrReliableStream { buffer, size, history };
-    let streams = field!(session, streams);
-    // SAFETY: contract; the table is a named field, plain data outside the Rust session's memory.
-    let t = unsafe { &mut *streams };
-    let count = u8::try_from(index + 1).unwrap_or(u8::MAX);
-    match (id.type_, u32::from(id.direction)) {
-        (crate::abi::BEST_EFFORT_STREAM, OUTPUT_STREAM) => {
-            if let Some(s) = t.output_best_effort.get_mut(index) {
-                s.buffer = buffer;
-                s.size = size;
-                t.output_best_effort_size = t.output_best_effort_size.max(count);
-            }
-        }
-        (crate::abi::RELIABLE_STREAM, OUTPUT_STREAM) => {
-            if let Some(s) = t.output_reliable.get_mut(index) {
-                s.base = base;
-                t.output_reliable_size = t.output_reliable_size.max(count);
-            }
-        }
-        (crate::abi::BEST_EFFORT_STREAM, _) => t.input_best_effort_size = t.input_best_effort_size.max(count),
-        (crate::abi::RELIABLE_STREAM, _) => {
-            if let Some(s) = t.input_reliable.get_mut(index) {
-                s.base = base;
-                t.input_reliable_size = t.input_reliable_size.max(count);
-            }
-        }
-        _ => {}
-    }
+/// Grows the count of a `streams` table to include the stream at `index`.
+fn count(size: &mut u8, index: usize) {
+    *size = (*size).max(u8::try_from(index + 1).unwrap_or(u8::MAX));
 }
 
 /// The streams made over memory the program lends.
@@ -77,8 +46,33 @@ unsafe fn lend(session: *mut uxrSession, buffer: *mut u8, size: usize, history: 
         })
     };
     if id.raw != 0 {
-        // SAFETY: contract: a session (the stream was created in it).
-        unsafe { record(session, id, buffer, size, history) };
+        // Recorded in `session->streams` by the kind known here, not decoded from the id (firmware size).
+        let index = usize::from(id.index);
+        let base = uxrReliableStream { buffer, size, history };
+        // SAFETY: contract: a session (the stream was created in it); the table is a named field, plain data
+        // outside the Rust session's memory.
+        let t = unsafe { &mut *field!(session, streams) };
+        match kind {
+            Lent::OutputBestEffort => {
+                if let Some(s) = t.output_best_effort.get_mut(index) {
+                    s.buffer = buffer;
+                    s.size = size;
+                    count(&mut t.output_best_effort_size, index);
+                }
+            }
+            Lent::OutputReliable => {
+                if let Some(s) = t.output_reliable.get_mut(index) {
+                    s.base = base;
+                    count(&mut t.output_reliable_size, index);
+                }
+            }
+            Lent::InputReliable => {
+                if let Some(s) = t.input_reliable.get_mut(index) {
+                    s.base = base;
+                    count(&mut t.input_reliable_size, index);
+                }
+            }
+        }
     }
     id
 }
@@ -126,8 +120,8 @@ pub unsafe extern "C" fn uxr_create_input_best_effort_stream(session: *mut uxrSe
         })
     };
     if id.raw != 0 {
-        // SAFETY: contract: a session (the stream was created in it).
-        unsafe { record(session, id, core::ptr::null_mut(), 0, 0) };
+        // SAFETY: contract: a session (the stream was created in it); a named field.
+        count(unsafe { &mut (*field!(session, streams)).input_best_effort_size }, usize::from(id.index));
     }
     id
 }
