@@ -71,6 +71,7 @@ impl Hooks {
 }
 
 /// A read-only CDR buffer over a received payload (little endian, as XRCE payloads travel).
+#[inline(never)] // one copy for the three data callbacks (firmware size)
 fn reader(data: &[u8]) -> (ucdrBuffer, u16) {
     let ub = ucdrBuffer::over(data.as_ptr().cast_mut(), data.len(), 0, 0, LITTLE);
     (ub, u16::try_from(data.len()).unwrap_or(u16::MAX))
