@@ -131,11 +131,10 @@ unsafe fn enter<'s>(session: *mut uxrSession) -> Option<&'s mut Inner> {
         }
         return None;
     }
+    // The hooks already point at `session`: the slot check found it where it was initialised (firmware size).
     // SAFETY: not busy, so no other reference to the session exists; callbacks reach only `in_callback` and
     // `busy` (other fields) while this one is live.
-    let inner = unsafe { &mut *addr_of_mut!((*slot).session) };
-    inner.callbacks().session = session;
-    Some(inner)
+    Some(unsafe { &mut *addr_of_mut!((*slot).session) })
 }
 
 /// Ends a call [`enter`] began: publishes `info`, clears `busy`, releases the lock.

@@ -63,6 +63,8 @@ impl CustomIo for Callbacks {
         self.open_close(|t| t.close)
     }
 
+    // Inlined: its result then lives in registers, not in memory the caller reads back (firmware size).
+    #[inline(always)]
     fn write(&mut self, buf: &[u8]) -> Result<usize, TransportError> {
         // SAFETY: as in `open_close`.
         let write = unsafe { self.0.as_ref() }.and_then(|t| t.write).ok_or(TransportError::NotOpen)?;
@@ -75,6 +77,8 @@ impl CustomIo for Callbacks {
         Ok(n.min(buf.len()))
     }
 
+    // As `write`.
+    #[inline(always)]
     fn read(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<usize, TransportError> {
         // SAFETY: as in `open_close`.
         let read = unsafe { self.0.as_ref() }.and_then(|t| t.read).ok_or(TransportError::NotOpen)?;
