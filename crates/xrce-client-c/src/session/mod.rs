@@ -162,7 +162,7 @@ unsafe fn leave(session: *mut uxrSession) {
 ///
 /// # Safety
 /// `session` an initialised `uxrSession` whose Rust session is `inner`.
-#[inline(never)] // one copy for every `with_session` instance (firmware size)
+#[inline(always)] // its one caller, `leave`, is out of line (firmware size)
 unsafe fn publish(session: *mut uxrSession, inner: &mut Inner) {
     let core = inner.core();
     let (id, key, last) = (core.session_id(), core.client_key(), core.last_request_id());
@@ -223,11 +223,11 @@ unsafe fn outputs_of<'s>(session: *mut uxrSession) -> Option<(Outputs<'s, 'stati
 
 /// The session's own outputs for [`with_outputs`]: a sample still being serialized through a window goes into
 /// the stream first, then the session is entered; `None` (not entered) when it cannot be, or once the session
-/// is deleted. Out of line: one copy for every `with_outputs` instance (firmware size).
+/// is deleted. Inlined into its one caller, [`outputs_of`], itself out of line (firmware size).
 ///
 /// # Safety
 /// `session` is null or points to a `uxrSession`; a `Some` is followed by [`leave`] once the call is done.
-#[inline(never)]
+#[inline(always)]
 unsafe fn open_outputs<'s>(session: *mut uxrSession) -> Option<&'s mut Inner> {
     // SAFETY: contract.
     unsafe { fragmented::finish_pending(session) };
