@@ -185,10 +185,19 @@ impl<IO: CustomIo, const MTU: usize> CustomTransport<IO, MTU> {
         &mut self.io
     }
 
-    fn write_all(&mut self, mut bytes: &[u8]) -> Result<(), TransportError> {
+    /// Writes `bytes`: with `whole` in one write that must take them all (packet mode), else in as many
+    /// writes as it takes (stream mode). The one place that calls `io.write`, so it is inlined here and its
+    /// result stays in registers (firmware size).
+    fn write_all(&mut self, mut bytes: &[u8], whole: bool) -> Result<(), TransportError> {
         let mut zero = 0;
-        while !bytes.is_empty() {
+        loop {
+            if !whole && bytes.is_empty() {
+                return Ok(());
+            }
             let n = self.io.write(bytes)?;
+            if whole {
+                return if n == bytes.len() { Ok(()) } else { Err(TransportError::ShortWrite) };
+            }
             if n == 0 {
                 zero += 1;
                 if zero >= MAX_ZERO_WRITES {
@@ -197,7 +206,6 @@ impl<IO: CustomIo, const MTU: usize> CustomTransport<IO, MTU> {
             }
             bytes = bytes.get(n..).unwrap_or(&[]);
         }
-        Ok(())
     }
 }
 
@@ -234,10 +242,7 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
             return Err(TransportError::MessageTooLarge);
         }
         if !self.framing {
-            return match self.io.write(msg)? {
-                n if n == msg.len() => Ok(()),
-                _ => Err(TransportError::ShortWrite),
-            };
+            return self.write_all(msg, true);
         }
         // The frame's bytes (as `FrameBytes` yields them) escaped straight into a chunk, no iterator state
         // (firmware size).
@@ -261,7 +266,7 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                         n += 1;
                     }
                     if n == CHUNK {
-                        self.write_all(&buf)?;
+                        self.write_all(&buf, false)?;
                         n = 0;
                     }
                     if !escape {
@@ -272,23 +277,24 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                 }
             }
         }
-        self.write_all(buf.get(..n).unwrap_or(&[]))
+        self.write_all(buf.get(..n).unwrap_or(&[]), false)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout_ms: i32) -> Result<Option<usize>, TransportError> {
         if !self.open {
             return Err(TransportError::NotOpen);
         }
-        if !self.framing {
-            let n = self.io.read(buf, timeout_ms)?;
-            return Ok((n > 0).then_some(n));
-        }
-        // One byte at a time through the parser, which has no error to report (firmware size).
+        // One byte at a time through the parser, which has no error to report; `io.read` called at one
+        // place for both modes, so it is inlined here (firmware size).
         loop {
-            if self.chunk_pos >= self.chunk_len {
-                let n = self.io.read(&mut self.chunk, timeout_ms)?;
+            if !self.framing || self.chunk_pos >= self.chunk_len {
+                let into: &mut [u8] = if self.framing { &mut self.chunk } else { &mut *buf };
+                let n = self.io.read(into, timeout_ms)?;
                 if n == 0 {
                     return Ok(None);
+                }
+                if !self.framing {
+                    return Ok(Some(n));
                 }
                 self.chunk_pos = 0;
                 self.chunk_len = n.min(CHUNK);
