@@ -255,7 +255,10 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
         if let Some(first) = buf.first_mut() {
             *first = FLAG;
         }
-        for part in [&header[..], msg, &crc[..]] {
+        // The header, the payload, the CRC in turn (no array of the three slices on the stack).
+        let mut part: &[u8] = &header;
+        let mut parts = 1;
+        loop {
             for &byte in part {
                 // An escaped byte goes as ESCAPE, then itself xored.
                 let mut escape = byte == FLAG || byte == ESCAPE;
@@ -276,6 +279,12 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                     out = byte ^ ESCAPE_XOR;
                 }
             }
+            part = match parts {
+                1 => msg,
+                2 => &crc,
+                _ => break,
+            };
+            parts += 1;
         }
         self.write_all(buf.get(..n).unwrap_or(&[]), false)
     }
