@@ -18,7 +18,7 @@
 //! whether it was sent and retransmitted, and the time of its last transmission in milliseconds modulo 8192.
 //! Slot capacity, and so the fragmentation layout, stay exactly the C client's.
 
-use super::{seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
+use super::{copy_parts, parts_total, seq, slot_size, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
 use xrce_proto::layout::submessage_offset;
 use xrce_proto::reliable::{AckNackBits, Duration, FragmentPlan, Instant, SendLog, Sender, SeqNum};
@@ -76,6 +76,8 @@ struct Slots<'a> {
     buf: &'a mut [u8],
     history: u16,
     slot: usize,
+    /// [`stamp_ms`] of the `now` the engine is being called with, computed once per call (firmware size).
+    now_ms: u16,
 }
 
 impl Slots<'_> {
@@ -121,24 +123,25 @@ impl Slots<'_> {
     }
 }
 
+// The engine passes on the `now` of the call `now_ms` was set for: both ignore it and read `now_ms`.
 impl SendLog for Slots<'_> {
     // Inlined at its five callers: out of line it cost a Cortex-M4 114 more bytes (C library), 132 (Rust).
     #[inline(always)]
-    fn since_sent(&self, seq: SeqNum, now: Instant) -> Option<(Duration, bool)> {
+    fn since_sent(&self, seq: SeqNum, _now: Instant) -> Option<(Duration, bool)> {
         let flags = self.flags(seq.0);
         if flags & SENT == 0 {
             return None;
         }
-        let elapsed = stamp_ms(now).wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
+        let elapsed = self.now_ms.wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
         Some((Duration::from_millis(i64::from(elapsed)), flags & RESENT != 0))
     }
 
     // Inlined at its two callers: out of line it cost a Cortex-M4 110 more bytes (C library), 92 (Rust).
     #[inline(always)]
-    fn stamp(&mut self, seq: SeqNum, now: Instant, retransmission: bool) {
+    fn stamp(&mut self, seq: SeqNum, _now: Instant, retransmission: bool) {
         let old = self.flags(seq.0);
         let resent = if retransmission { RESENT } else { old & RESENT };
-        self.set_word(seq.0, 2, (old & ENDS_WITH_FRAGMENT) | SENT | resent | (stamp_ms(now) << STAMP_SHIFT));
+        self.set_word(seq.0, 2, (old & ENDS_WITH_FRAGMENT) | SENT | resent | (self.now_ms << STAMP_SHIFT));
     }
 }
 
@@ -163,7 +166,7 @@ impl<'a> OutputReliable<'a> {
         let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
         let header_size = u8::try_from(header_size).map_err(|_| Error::InvalidHistory)?;
         let mut s = Self {
-            slots: Slots { buf, history, slot },
+            slots: Slots { buf, history, slot, now_ms: 0 },
             header_size,
             last_written: 0,
             sender: Sender::new(),
@@ -361,33 +364,15 @@ impl<'a> OutputReliable<'a> {
     /// it does not fit one (spec §9.6). All or nothing: [`Error::WouldBlock`] when the window lacks slots now,
     /// [`Error::TooLarge`] when the whole history could never hold it.
     pub fn write_parts(&mut self, parts: &[&[u8]]) -> Result<()> {
-        let total = Parts::total(parts);
+        let total = parts_total(parts);
         if let Some(region) = self.reserve(total)? {
-            Parts::new(parts).read_into(region);
+            copy_parts(region, parts);
             return Ok(());
         }
-        let (first, first_off) = self.first_fragment_place(1);
-        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
-        let extra = plan.count(total) - 1;
-        if extra >= usize::from(self.slots.history) {
-            return Err(Error::TooLarge);
-        }
-        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
-        if !self.window_ok(first) || !self.window_ok(last) {
-            return Err(Error::WouldBlock);
-        }
+        let (first, first_off) = self.whole_chain_place(1, total)?;
         self.start_chain(first, first_off, total);
-        let mut reader = Parts::new(parts);
-        let mut scratch = [0u8; 64];
-        let mut left = total;
-        while left > 0 {
-            let n = reader.read_into(scratch.get_mut(..left.min(64)).unwrap_or(&mut []));
-            if n == 0 {
-                break;
-            }
-            let pushed = self.push(scratch.get(..n).unwrap_or(&[]));
-            left -= pushed;
-            if pushed < n {
+        for p in parts {
+            if self.push(p) < p.len() {
                 // Cannot happen: the window was checked for every slot of the chain.
                 return Err(Error::WouldBlock);
             }
@@ -405,6 +390,23 @@ impl<'a> OutputReliable<'a> {
         } else {
             (self.next_slot(), self.header_len())
         }
+    }
+
+    /// [`first_fragment_place`](Self::first_fragment_place) for a chain of `total` inner bytes that must fit the
+    /// free history whole: [`Error::WouldBlock`] when the window lacks slots now, [`Error::TooLarge`] when the
+    /// history could never hold it.
+    fn whole_chain_place(&self, min_first: usize, total: usize) -> Result<(u16, usize)> {
+        let (first, first_off) = self.first_fragment_place(min_first);
+        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
+        let extra = plan.count(total) - 1;
+        if extra >= usize::from(self.slots.history) {
+            return Err(Error::TooLarge);
+        }
+        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
+        if !self.window_ok(first) || !self.window_ok(last) {
+            return Err(Error::WouldBlock);
+        }
+        Ok((first, first_off))
     }
 
     fn start_chain(&mut self, first: u16, at: usize, total: usize) {
@@ -456,16 +458,7 @@ impl<'a> OutputReliable<'a> {
         if self.chain.is_some() {
             return Err(Error::Busy);
         }
-        let (first, first_off) = self.first_fragment_place(head.len());
-        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
-        let extra = plan.count(inner_total).saturating_sub(1);
-        if extra >= usize::from(self.slots.history) {
-            return Err(Error::TooLarge);
-        }
-        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
-        if !self.window_ok(first) || !self.window_ok(last) {
-            return Err(Error::WouldBlock);
-        }
+        self.whole_chain_place(head.len(), inner_total)?;
         self.begin_chain(head, inner_total)
     }
 
@@ -561,6 +554,7 @@ impl<'a> OutputReliable<'a> {
     }
 
     fn next_to_send(&mut self, now: Instant) -> Option<u16> {
+        self.slots.now_ms = stamp_ms(now);
         if let Some(r) = self.sender.next_retransmission(&mut self.slots, now) {
             return Some(r.0);
         }
@@ -607,7 +601,9 @@ impl<'a> OutputReliable<'a> {
     pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
         let ack = AckNackBits { first_unacked: SeqNum(first_unacked), bitmap };
         let first = self.sender.last_acked().next().0;
-        let released = self.sender.on_acknack(&mut self.slots, ack, Instant::from_nanos(now), PERIOD);
+        let now = Instant::from_nanos(now);
+        self.slots.now_ms = stamp_ms(now);
+        let released = self.sender.on_acknack(&mut self.slots, ack, now, PERIOD);
         for i in 0..released {
             self.slots.set(first.wrapping_add(i), 0, 0);
         }

@@ -116,6 +116,7 @@ pub const fn div_trunc_pow1000(n: i64, k: u32) -> i64 {
 
 impl Add<Duration> for Instant {
     type Output = Self;
+    #[inline(never)]
     fn add(self, d: Duration) -> Self {
         Self(self.0.saturating_add(d.0))
     }
