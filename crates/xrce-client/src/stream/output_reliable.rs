@@ -112,6 +112,7 @@ impl Slots<'_> {
     }
 
     /// The message area of slot `seq_nr`.
+    #[cfg(feature = "reconnect")]
     fn content(&self, seq_nr: u16) -> &[u8] {
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot + SLOT_LEN_WORD;
         self.buf.get(at..at + self.slot - SLOT_LEN_WORD).unwrap_or(&[])
@@ -245,7 +246,7 @@ impl<'a> OutputReliable<'a> {
         if hs + body.len() > self.slot_capacity() {
             return Err(Error::TooLarge);
         }
-        let target = self.next_slot();
+        let target = Self::next_after(self.last_written, self.len_of(self.last_written));
         if !self.window_ok(target) {
             return Err(Error::WouldBlock);
         }
@@ -318,12 +319,12 @@ impl<'a> OutputReliable<'a> {
         SeqNum(seq_nr).in_window(self.sender.last_acked(), self.slots.history)
     }
 
-    /// Where the next message would start: (slot, offset) in the current slot when `fits` says so, else the next.
-    fn next_slot(&self) -> u16 {
-        if self.len_of(self.last_written) == 0 {
-            self.last_written
+    /// The message after `cur`, of length `cur_len`: itself while empty.
+    const fn next_after(cur: u16, cur_len: usize) -> u16 {
+        if cur_len == 0 {
+            cur
         } else {
-            self.last_written.wrapping_add(1)
+            cur.wrapping_add(1)
         }
     }
 
@@ -339,7 +340,7 @@ impl<'a> OutputReliable<'a> {
         let (target, at) = if cur_len > 0 && submessage_offset(cur_len) + total <= cap {
             (cur, submessage_offset(cur_len))
         } else if self.header_len() + total <= cap {
-            let next = self.next_slot();
+            let next = Self::next_after(cur, cur_len);
             if !self.window_ok(next) {
                 return Err(Error::WouldBlock);
             }
@@ -348,11 +349,10 @@ impl<'a> OutputReliable<'a> {
             return Ok(None);
         };
         self.last_written = target;
-        let old = self.len_of(target);
         self.set_len(target, at + total, 0);
         let content = self.content_mut(target);
-        let from = old.min(at);
-        if let Some(pad) = content.get_mut(from..at) {
+        // From the end of the current message: in the next one (`cur_len` past its header) there is nothing to pad.
+        if let Some(pad) = content.get_mut(cur_len.min(at)..at) {
             pad.fill(0);
         }
         let region = content.get_mut(at..at + total).ok_or(Error::TooLarge)?;
@@ -388,7 +388,7 @@ impl<'a> OutputReliable<'a> {
         if cur_len > 0 && submessage_offset(cur_len) + SUBHEADER + min_first <= self.slot_capacity() {
             (cur, submessage_offset(cur_len))
         } else {
-            (self.next_slot(), self.header_len())
+            (Self::next_after(cur, cur_len), self.header_len())
         }
     }
 
@@ -409,17 +409,22 @@ impl<'a> OutputReliable<'a> {
         Ok((first, first_off))
     }
 
-    fn start_chain(&mut self, first: u16, at: usize, total: usize) {
-        let old = self.len_of(first);
-        self.last_written = first;
-        let content = self.content_mut(first);
+    /// Writes an empty FRAGMENT header at `at` in message `seq_nr` (after zero padding from its content).
+    fn open_fragment(&mut self, seq_nr: u16, at: usize) {
+        let old = self.len_of(seq_nr);
+        let content = self.content_mut(seq_nr);
         if let Some(pad) = content.get_mut(old.min(at)..at) {
             pad.fill(0);
         }
         if let Some(h) = content.get_mut(at..) {
             FragmentHead { last: false, chunk_len: 0 }.set_in(h);
         }
-        self.set_len(first, at + SUBHEADER, ENDS_WITH_FRAGMENT);
+        self.set_len(seq_nr, at + SUBHEADER, ENDS_WITH_FRAGMENT);
+    }
+
+    fn start_chain(&mut self, first: u16, at: usize, total: usize) {
+        self.last_written = first;
+        self.open_fragment(first, at);
         self.chain = Some(Chain {
             #[cfg(feature = "reconnect")]
             first,
@@ -486,10 +491,8 @@ impl<'a> OutputReliable<'a> {
                 if !self.window_ok(c.seq) {
                     break;
                 }
-                if let Some(h) = self.content_mut(c.seq).get_mut(hs..) {
-                    FragmentHead { last: false, chunk_len: 0 }.set_in(h);
-                }
-                self.set_len(c.seq, hs + SUBHEADER, ENDS_WITH_FRAGMENT);
+                // A fresh slot: the padding only zeroes its header's place, never sent from here.
+                self.open_fragment(c.seq, hs);
                 c.started = true;
                 c.sub_at = hs;
             }
@@ -548,7 +551,8 @@ impl<'a> OutputReliable<'a> {
         let padded = if self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { submessage_offset(len) };
         let dst = out.get_mut(..padded)?;
         let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
-        xrce_proto::bytes::copy(dst.get_mut(hs..len)?, self.slots.content(seq_nr).get(hs..len)?);
+        // Through the out-of-line `content_mut`: less code than `content` inlined here (firmware size).
+        xrce_proto::bytes::copy(dst.get_mut(hs..len)?, self.content_mut(seq_nr).get(hs..len)?);
         dst.get_mut(len..padded)?.fill(0);
         Some(padded)
     }
