@@ -140,9 +140,10 @@ impl Sender {
         let interval = self.retransmit_interval();
         let first_pending = self.last_acked.next();
         for seq in ack.nacked() {
-            // A stale ACKNACK may name messages acknowledged since, a bogus one messages never sent.
+            // A stale ACKNACK may name messages acknowledged since (their offset wraps past 32767), a bogus one
+            // messages never sent.
             let offset = first_pending.distance(seq);
-            if !first_pending.le(seq) || !seq.le(self.last_sent) || offset >= 16 {
+            if offset >= 16 || !seq.le(self.last_sent) {
                 continue;
             }
             match log.since_sent(seq, now) {
