@@ -186,9 +186,9 @@ impl Sender {
         if now >= self.deferred_at {
             self.release_deferred(log, now);
         }
-        while let Some(seq) =
-            (AckNackBits { first_unacked: self.last_acked.next(), bitmap: self.resend }).nacked().next()
-        {
+        while self.resend != 0 {
+            // The lowest bit set (below 16: `resend` is a u16); without the `Nacked` iterator, less code.
+            let seq = self.last_acked.next().add(self.resend.trailing_zeros() as u16);
             self.resend &= self.resend.wrapping_sub(1);
             if seq.le(self.last_sent) && log.since_sent(seq, now).is_some() {
                 log.stamp(seq, now, true);
