@@ -144,6 +144,10 @@ impl SendLog for Slots<'_> {
         let resent = if retransmission { RESENT } else { old & RESENT };
         self.set_word(seq.0, 2, (old & ENDS_WITH_FRAGMENT) | SENT | resent | (self.now_ms << STAMP_SHIFT));
     }
+
+    fn release(&mut self, seq: SeqNum) {
+        self.set(seq.0, 0, 0);
+    }
 }
 
 /// A reliable output stream over a caller's buffer.
@@ -604,13 +608,10 @@ impl<'a> OutputReliable<'a> {
     #[inline(never)]
     pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
         let ack = AckNackBits { first_unacked: SeqNum(first_unacked), bitmap };
-        let first = self.sender.last_acked().next().0;
         let now = Instant::from_nanos(now);
         self.slots.now_ms = stamp_ms(now);
-        let released = self.sender.on_acknack(&mut self.slots, ack, now, PERIOD);
-        for i in 0..released {
-            self.slots.set(first.wrapping_add(i), 0, 0);
-        }
+        // The engine frees the acknowledged slots (`SendLog::release`).
+        self.sender.on_acknack(&mut self.slots, ack, now, PERIOD);
     }
 
     /// The earliest time this stream has something to do without new input: a HEARTBEAT or a deferred
