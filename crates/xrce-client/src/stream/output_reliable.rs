@@ -83,10 +83,7 @@ struct Slots<'a> {
 impl Slots<'_> {
     fn word_at(&self, seq_nr: u16, half: usize) -> u16 {
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot + half;
-        match self.buf.get(at..at + 2) {
-            Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
-            _ => 0,
-        }
+        self.buf.get(at..).and_then(<[u8]>::first_chunk::<2>).map_or(0, |w| u16::from_le_bytes(*w))
     }
 
     fn set_word(&mut self, seq_nr: u16, half: usize, v: u16) {
