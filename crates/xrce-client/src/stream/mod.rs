@@ -59,42 +59,19 @@ pub(crate) fn slot_size(buffer_len: usize, history: usize) -> Option<usize> {
     (slot >= SLOT_LEN_WORD + MessageHeader::MAX_SIZE + SUBHEADER + 4).then_some(slot)
 }
 
-/// Reads the whole-message bytes of `parts` in order, as if they were one slice.
-pub(crate) struct Parts<'p> {
-    parts: &'p [&'p [u8]],
-    index: usize,
-    offset: usize,
+/// Total length of all parts of a submessage.
+pub(crate) fn parts_total(parts: &[&[u8]]) -> usize {
+    parts.iter().map(|p| p.len()).sum()
 }
 
-impl<'p> Parts<'p> {
-    pub(crate) const fn new(parts: &'p [&'p [u8]]) -> Self {
-        Self { parts, index: 0, offset: 0 }
-    }
-
-    /// Total length of all parts.
-    pub(crate) fn total(parts: &[&[u8]]) -> usize {
-        parts.iter().map(|p| p.len()).sum()
-    }
-
-    /// Copies the next `dst.len()` bytes (or fewer at the end) into `dst`; returns how many.
-    pub(crate) fn read_into(&mut self, dst: &mut [u8]) -> usize {
-        let mut done = 0;
-        while done < dst.len() {
-            let Some(part) = self.parts.get(self.index) else { break };
-            let src = part.get(self.offset..).unwrap_or(&[]);
-            if src.is_empty() {
-                self.index += 1;
-                self.offset = 0;
-                continue;
-            }
-            let n = src.len().min(dst.len() - done);
-            if let (Some(d), Some(s)) = (dst.get_mut(done..done + n), src.get(..n)) {
-                xrce_proto::bytes::copy(d, s);
-            }
-            done += n;
-            self.offset += n;
+/// Copies `parts` one after the other to the start of `dst` (as long as it holds them).
+pub(crate) fn copy_parts(dst: &mut [u8], parts: &[&[u8]]) {
+    let mut at = 0;
+    for p in parts {
+        if let Some(d) = dst.get_mut(at..at + p.len()) {
+            xrce_proto::bytes::copy(d, p);
         }
-        done
+        at += p.len();
     }
 }
 

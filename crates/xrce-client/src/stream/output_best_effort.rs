@@ -1,7 +1,7 @@
 //! Best-effort output stream (spec §9.2): submessages accumulate in one buffer that a flush sends as one
 //! message with the next sequence number.
 
-use super::{seq, Parts, SUBHEADER};
+use super::{copy_parts, parts_total, seq, SUBHEADER};
 use crate::error::{Error, Result};
 use xrce_proto::layout::submessage_offset;
 use xrce_proto::{ClientKey, MessageHeader, StreamId};
@@ -71,12 +71,12 @@ impl<'a> OutputBestEffort<'a> {
 
     /// Appends a submessage made of `parts` (its 4-byte header first).
     pub fn write_parts(&mut self, parts: &[&[u8]]) -> Result<()> {
-        let total = Parts::total(parts);
+        let total = parts_total(parts);
         if total < SUBHEADER {
             return Err(Error::Encode(xrce_proto::cdr::Error::Truncated));
         }
         let region = self.reserve(total)?;
-        Parts::new(parts).read_into(region);
+        copy_parts(region, parts);
         Ok(())
     }
 

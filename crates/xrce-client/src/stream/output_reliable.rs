@@ -18,7 +18,7 @@
 //! whether it was sent and retransmitted, and the time of its last transmission in milliseconds modulo 8192.
 //! Slot capacity, and so the fragmentation layout, stay exactly the C client's.
 
-use super::{seq, slot_size, Parts, SLOT_LEN_WORD, SUBHEADER};
+use super::{copy_parts, parts_total, seq, slot_size, SLOT_LEN_WORD, SUBHEADER};
 use crate::error::{Error, Result};
 use xrce_proto::layout::submessage_offset;
 use xrce_proto::reliable::{AckNackBits, Duration, FragmentPlan, Instant, SendLog, Sender, SeqNum};
@@ -76,15 +76,14 @@ struct Slots<'a> {
     buf: &'a mut [u8],
     history: u16,
     slot: usize,
+    /// [`stamp_ms`] of the `now` the engine is being called with, computed once per call (firmware size).
+    now_ms: u16,
 }
 
 impl Slots<'_> {
     fn word_at(&self, seq_nr: u16, half: usize) -> u16 {
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot + half;
-        match self.buf.get(at..at + 2) {
-            Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
-            _ => 0,
-        }
+        self.buf.get(at..).and_then(<[u8]>::first_chunk::<2>).map_or(0, |w| u16::from_le_bytes(*w))
     }
 
     fn set_word(&mut self, seq_nr: u16, half: usize, v: u16) {
@@ -110,6 +109,7 @@ impl Slots<'_> {
     }
 
     /// The message area of slot `seq_nr`.
+    #[cfg(feature = "reconnect")]
     fn content(&self, seq_nr: u16) -> &[u8] {
         let at = usize::from(seq_nr & (self.history - 1)) * self.slot + SLOT_LEN_WORD;
         self.buf.get(at..at + self.slot - SLOT_LEN_WORD).unwrap_or(&[])
@@ -121,24 +121,29 @@ impl Slots<'_> {
     }
 }
 
+// The engine passes on the `now` of the call `now_ms` was set for: both ignore it and read `now_ms`.
 impl SendLog for Slots<'_> {
     // Inlined at its five callers: out of line it cost a Cortex-M4 114 more bytes (C library), 132 (Rust).
     #[inline(always)]
-    fn since_sent(&self, seq: SeqNum, now: Instant) -> Option<(Duration, bool)> {
+    fn since_sent(&self, seq: SeqNum, _now: Instant) -> Option<(Duration, bool)> {
         let flags = self.flags(seq.0);
         if flags & SENT == 0 {
             return None;
         }
-        let elapsed = stamp_ms(now).wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
+        let elapsed = self.now_ms.wrapping_sub(flags >> STAMP_SHIFT) & STAMP_MASK;
         Some((Duration::from_millis(i64::from(elapsed)), flags & RESENT != 0))
     }
 
     // Inlined at its two callers: out of line it cost a Cortex-M4 110 more bytes (C library), 92 (Rust).
     #[inline(always)]
-    fn stamp(&mut self, seq: SeqNum, now: Instant, retransmission: bool) {
+    fn stamp(&mut self, seq: SeqNum, _now: Instant, retransmission: bool) {
         let old = self.flags(seq.0);
         let resent = if retransmission { RESENT } else { old & RESENT };
-        self.set_word(seq.0, 2, (old & ENDS_WITH_FRAGMENT) | SENT | resent | (stamp_ms(now) << STAMP_SHIFT));
+        self.set_word(seq.0, 2, (old & ENDS_WITH_FRAGMENT) | SENT | resent | (self.now_ms << STAMP_SHIFT));
+    }
+
+    fn release(&mut self, seq: SeqNum) {
+        self.set(seq.0, 0, 0);
     }
 }
 
@@ -163,7 +168,7 @@ impl<'a> OutputReliable<'a> {
         let history = u16::try_from(history).map_err(|_| Error::InvalidHistory)?;
         let header_size = u8::try_from(header_size).map_err(|_| Error::InvalidHistory)?;
         let mut s = Self {
-            slots: Slots { buf, history, slot },
+            slots: Slots { buf, history, slot, now_ms: 0 },
             header_size,
             last_written: 0,
             sender: Sender::new(),
@@ -242,7 +247,7 @@ impl<'a> OutputReliable<'a> {
         if hs + body.len() > self.slot_capacity() {
             return Err(Error::TooLarge);
         }
-        let target = self.next_slot();
+        let target = Self::next_after(self.last_written, self.len_of(self.last_written));
         if !self.window_ok(target) {
             return Err(Error::WouldBlock);
         }
@@ -315,12 +320,12 @@ impl<'a> OutputReliable<'a> {
         SeqNum(seq_nr).in_window(self.sender.last_acked(), self.slots.history)
     }
 
-    /// Where the next message would start: (slot, offset) in the current slot when `fits` says so, else the next.
-    fn next_slot(&self) -> u16 {
-        if self.len_of(self.last_written) == 0 {
-            self.last_written
+    /// The message after `cur`, of length `cur_len`: itself while empty.
+    const fn next_after(cur: u16, cur_len: usize) -> u16 {
+        if cur_len == 0 {
+            cur
         } else {
-            self.last_written.wrapping_add(1)
+            cur.wrapping_add(1)
         }
     }
 
@@ -336,7 +341,7 @@ impl<'a> OutputReliable<'a> {
         let (target, at) = if cur_len > 0 && submessage_offset(cur_len) + total <= cap {
             (cur, submessage_offset(cur_len))
         } else if self.header_len() + total <= cap {
-            let next = self.next_slot();
+            let next = Self::next_after(cur, cur_len);
             if !self.window_ok(next) {
                 return Err(Error::WouldBlock);
             }
@@ -345,11 +350,10 @@ impl<'a> OutputReliable<'a> {
             return Ok(None);
         };
         self.last_written = target;
-        let old = self.len_of(target);
         self.set_len(target, at + total, 0);
         let content = self.content_mut(target);
-        let from = old.min(at);
-        if let Some(pad) = content.get_mut(from..at) {
+        // From the end of the current message: in the next one (`cur_len` past its header) there is nothing to pad.
+        if let Some(pad) = content.get_mut(cur_len.min(at)..at) {
             pad.fill(0);
         }
         let region = content.get_mut(at..at + total).ok_or(Error::TooLarge)?;
@@ -361,33 +365,15 @@ impl<'a> OutputReliable<'a> {
     /// it does not fit one (spec §9.6). All or nothing: [`Error::WouldBlock`] when the window lacks slots now,
     /// [`Error::TooLarge`] when the whole history could never hold it.
     pub fn write_parts(&mut self, parts: &[&[u8]]) -> Result<()> {
-        let total = Parts::total(parts);
+        let total = parts_total(parts);
         if let Some(region) = self.reserve(total)? {
-            Parts::new(parts).read_into(region);
+            copy_parts(region, parts);
             return Ok(());
         }
-        let (first, first_off) = self.first_fragment_place(1);
-        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
-        let extra = plan.count(total) - 1;
-        if extra >= usize::from(self.slots.history) {
-            return Err(Error::TooLarge);
-        }
-        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
-        if !self.window_ok(first) || !self.window_ok(last) {
-            return Err(Error::WouldBlock);
-        }
+        let (first, first_off) = self.whole_chain_place(1, total)?;
         self.start_chain(first, first_off, total);
-        let mut reader = Parts::new(parts);
-        let mut scratch = [0u8; 64];
-        let mut left = total;
-        while left > 0 {
-            let n = reader.read_into(scratch.get_mut(..left.min(64)).unwrap_or(&mut []));
-            if n == 0 {
-                break;
-            }
-            let pushed = self.push(scratch.get(..n).unwrap_or(&[]));
-            left -= pushed;
-            if pushed < n {
+        for p in parts {
+            if self.push(p) < p.len() {
                 // Cannot happen: the window was checked for every slot of the chain.
                 return Err(Error::WouldBlock);
             }
@@ -403,21 +389,43 @@ impl<'a> OutputReliable<'a> {
         if cur_len > 0 && submessage_offset(cur_len) + SUBHEADER + min_first <= self.slot_capacity() {
             (cur, submessage_offset(cur_len))
         } else {
-            (self.next_slot(), self.header_len())
+            (Self::next_after(cur, cur_len), self.header_len())
         }
     }
 
-    fn start_chain(&mut self, first: u16, at: usize, total: usize) {
-        let old = self.len_of(first);
-        self.last_written = first;
-        let content = self.content_mut(first);
+    /// [`first_fragment_place`](Self::first_fragment_place) for a chain of `total` inner bytes that must fit the
+    /// free history whole: [`Error::WouldBlock`] when the window lacks slots now, [`Error::TooLarge`] when the
+    /// history could never hold it.
+    fn whole_chain_place(&self, min_first: usize, total: usize) -> Result<(u16, usize)> {
+        let (first, first_off) = self.first_fragment_place(min_first);
+        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
+        let extra = plan.count(total) - 1;
+        if extra >= usize::from(self.slots.history) {
+            return Err(Error::TooLarge);
+        }
+        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
+        if !self.window_ok(first) || !self.window_ok(last) {
+            return Err(Error::WouldBlock);
+        }
+        Ok((first, first_off))
+    }
+
+    /// Writes an empty FRAGMENT header at `at` in message `seq_nr` (after zero padding from its content).
+    fn open_fragment(&mut self, seq_nr: u16, at: usize) {
+        let old = self.len_of(seq_nr);
+        let content = self.content_mut(seq_nr);
         if let Some(pad) = content.get_mut(old.min(at)..at) {
             pad.fill(0);
         }
         if let Some(h) = content.get_mut(at..) {
             FragmentHead { last: false, chunk_len: 0 }.set_in(h);
         }
-        self.set_len(first, at + SUBHEADER, ENDS_WITH_FRAGMENT);
+        self.set_len(seq_nr, at + SUBHEADER, ENDS_WITH_FRAGMENT);
+    }
+
+    fn start_chain(&mut self, first: u16, at: usize, total: usize) {
+        self.last_written = first;
+        self.open_fragment(first, at);
         self.chain = Some(Chain {
             #[cfg(feature = "reconnect")]
             first,
@@ -456,16 +464,7 @@ impl<'a> OutputReliable<'a> {
         if self.chain.is_some() {
             return Err(Error::Busy);
         }
-        let (first, first_off) = self.first_fragment_place(head.len());
-        let plan = FragmentPlan::continuing(self.slot_capacity(), self.header_len(), first_off);
-        let extra = plan.count(inner_total).saturating_sub(1);
-        if extra >= usize::from(self.slots.history) {
-            return Err(Error::TooLarge);
-        }
-        let last = first.wrapping_add(u16::try_from(extra).map_err(|_| Error::TooLarge)?);
-        if !self.window_ok(first) || !self.window_ok(last) {
-            return Err(Error::WouldBlock);
-        }
+        self.whole_chain_place(head.len(), inner_total)?;
         self.begin_chain(head, inner_total)
     }
 
@@ -493,10 +492,8 @@ impl<'a> OutputReliable<'a> {
                 if !self.window_ok(c.seq) {
                     break;
                 }
-                if let Some(h) = self.content_mut(c.seq).get_mut(hs..) {
-                    FragmentHead { last: false, chunk_len: 0 }.set_in(h);
-                }
-                self.set_len(c.seq, hs + SUBHEADER, ENDS_WITH_FRAGMENT);
+                // A fresh slot: the padding only zeroes its header's place, never sent from here.
+                self.open_fragment(c.seq, hs);
                 c.started = true;
                 c.sub_at = hs;
             }
@@ -555,12 +552,14 @@ impl<'a> OutputReliable<'a> {
         let padded = if self.slots.flags(seq_nr) & ENDS_WITH_FRAGMENT != 0 { len } else { submessage_offset(len) };
         let dst = out.get_mut(..padded)?;
         let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
-        xrce_proto::bytes::copy(dst.get_mut(hs..len)?, self.slots.content(seq_nr).get(hs..len)?);
+        // Through the out-of-line `content_mut`: less code than `content` inlined here (firmware size).
+        xrce_proto::bytes::copy(dst.get_mut(hs..len)?, self.content_mut(seq_nr).get(hs..len)?);
         dst.get_mut(len..padded)?.fill(0);
         Some(padded)
     }
 
     fn next_to_send(&mut self, now: Instant) -> Option<u16> {
+        self.slots.now_ms = stamp_ms(now);
         if let Some(r) = self.sender.next_retransmission(&mut self.slots, now) {
             return Some(r.0);
         }
@@ -606,11 +605,10 @@ impl<'a> OutputReliable<'a> {
     #[inline(never)]
     pub fn on_acknack(&mut self, first_unacked: u16, bitmap: u16, now: i64) {
         let ack = AckNackBits { first_unacked: SeqNum(first_unacked), bitmap };
-        let first = self.sender.last_acked().next().0;
-        let released = self.sender.on_acknack(&mut self.slots, ack, Instant::from_nanos(now), PERIOD);
-        for i in 0..released {
-            self.slots.set(first.wrapping_add(i), 0, 0);
-        }
+        let now = Instant::from_nanos(now);
+        self.slots.now_ms = stamp_ms(now);
+        // The engine frees the acknowledged slots (`SendLog::release`).
+        self.sender.on_acknack(&mut self.slots, ack, now, PERIOD);
     }
 
     /// The earliest time this stream has something to do without new input: a HEARTBEAT or a deferred

@@ -28,6 +28,9 @@ pub trait SendLog {
     fn since_sent(&self, seq: SeqNum, now: Instant) -> Option<(Duration, bool)>;
     /// Records a transmission of the held message `seq`.
     fn stamp(&mut self, seq: SeqNum, now: Instant, retransmission: bool);
+    /// Message `seq` was acknowledged: [`Sender::on_acknack`] calls this for each, oldest first, once done with
+    /// its record. Nothing by default.
+    fn release(&mut self, _seq: SeqNum) {}
 }
 
 /// Counters and timers of a reliable output stream.
@@ -113,20 +116,29 @@ impl Sender {
 
     /// An ACKNACK: samples the round trip, schedules the resends it asks for (see the module) and returns how
     /// many messages it acknowledged, the oldest first from `last_acked + 1` as it was: the caller frees
-    /// them *after* this call. `period` is the HEARTBEAT period (it caps the probe timeout).
+    /// them *after* this call, or in [`SendLog::release`]. `period` is the HEARTBEAT period (it caps the probe timeout).
     pub fn on_acknack(&mut self, log: &mut impl SendLog, ack: AckNackBits, now: Instant, period: Duration) -> u16 {
         let acked = ack.first_unacked.sub(1);
         let mut released = 0;
         if self.last_acked.lt(acked) && acked.le(self.last_sent) {
             released = self.last_acked.distance(acked);
-            let oldest = self.last_acked.next();
+            // The oldest message's time since sent, unless a message released was retransmitted (or not sent).
+            let mut rtt = None;
             let mut clean = true;
-            let mut seq = oldest;
-            for _ in 0..released {
-                clean &= log.since_sent(seq, now).is_some_and(|(_, resent)| !resent);
+            let mut seq = self.last_acked;
+            for i in 0..released {
                 seq = seq.next();
+                match log.since_sent(seq, now) {
+                    Some((since, false)) => {
+                        if i == 0 {
+                            rtt = Some(since);
+                        }
+                    }
+                    _ => clean = false,
+                }
+                log.release(seq);
             }
-            if let (true, Some((rtt, _))) = (clean, log.since_sent(oldest, now)) {
+            if let (true, Some(rtt)) = (clean, rtt) {
                 self.probe.rtt.sample(rtt);
             }
             self.last_acked = acked;
@@ -140,9 +152,10 @@ impl Sender {
         let interval = self.retransmit_interval();
         let first_pending = self.last_acked.next();
         for seq in ack.nacked() {
-            // A stale ACKNACK may name messages acknowledged since, a bogus one messages never sent.
+            // A stale ACKNACK may name messages acknowledged since (their offset wraps past 32767), a bogus one
+            // messages never sent.
             let offset = first_pending.distance(seq);
-            if !first_pending.le(seq) || !seq.le(self.last_sent) || offset >= 16 {
+            if offset >= 16 || !seq.le(self.last_sent) {
                 continue;
             }
             match log.since_sent(seq, now) {
@@ -185,9 +198,9 @@ impl Sender {
         if now >= self.deferred_at {
             self.release_deferred(log, now);
         }
-        while let Some(seq) =
-            (AckNackBits { first_unacked: self.last_acked.next(), bitmap: self.resend }).nacked().next()
-        {
+        while self.resend != 0 {
+            // The lowest bit set (below 16: `resend` is a u16); without the `Nacked` iterator, less code.
+            let seq = self.last_acked.next().add(self.resend.trailing_zeros() as u16);
             self.resend &= self.resend.wrapping_sub(1);
             if seq.le(self.last_sent) && log.since_sent(seq, now).is_some() {
                 log.stamp(seq, now, true);

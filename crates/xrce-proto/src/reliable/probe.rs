@@ -100,6 +100,8 @@ impl Probe {
 
     /// The probe timeout now: `max(2 × min RTT, PROBE_FLOOR)` doubled per unanswered probe, at most
     /// `period`; `period` before any sample.
+    // Out of line: inlined at some callers (firmware size).
+    #[inline(never)]
     pub fn timeout(&self, period: Duration) -> Duration {
         let Some(rtt) = self.rtt.min() else { return period };
         Duration(rtt.0.saturating_mul(2).max(PROBE_FLOOR.0)).shl_saturating(self.backoff.min(MAX_BACKOFF)).min(period)

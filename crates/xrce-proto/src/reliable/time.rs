@@ -26,6 +26,8 @@ impl Instant {
     }
 
     /// From nanoseconds since the epoch (truncated to the microsecond).
+    // Inlined: a call to `div_trunc_pow1000` directly, no wrapper (firmware size).
+    #[inline(always)]
     pub const fn from_nanos(ns: i64) -> Self {
         Self(div_trunc_pow1000(ns, 1))
     }
@@ -116,6 +118,7 @@ pub const fn div_trunc_pow1000(n: i64, k: u32) -> i64 {
 
 impl Add<Duration> for Instant {
     type Output = Self;
+    #[inline(never)]
     fn add(self, d: Duration) -> Self {
         Self(self.0.saturating_add(d.0))
     }
