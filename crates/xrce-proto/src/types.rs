@@ -358,6 +358,13 @@ impl Time {
         Self { seconds: seconds as i32, nanoseconds }
     }
 
+    /// Its little-endian CDR bytes at a 4-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 8] {
+        let [s0, s1, s2, s3] = self.seconds.to_le_bytes();
+        let [n0, n1, n2, n3] = self.nanoseconds.to_le_bytes();
+        [s0, s1, s2, s3, n0, n1, n2, n3]
+    }
+
     /// Nanoseconds since the epoch.
     pub const fn as_nanos(self) -> i64 {
         self.seconds as i64 * 1_000_000_000 + self.nanoseconds as i64
@@ -546,6 +553,14 @@ impl Encode for RequestId {
 impl BaseObjectRequest {
     const fn from_bytes([r0, r1, o0, o1]: [u8; 4]) -> Self {
         Self { request_id: RequestId(u16::from_be_bytes([r0, r1])), object_id: ObjectId([o0, o1]) }
+    }
+}
+
+impl BaseObjectReply {
+    /// Its CDR bytes (no alignment, no byte order).
+    pub const fn to_bytes(&self) -> [u8; 6] {
+        let [r0, r1, o0, o1] = self.related_request.to_bytes();
+        [r0, r1, o0, o1, self.result.status.0, self.result.implementation_status]
     }
 }
 

@@ -23,8 +23,7 @@ use crate::error::{Error, Result};
 use crate::stream::input_reliable_ready as ready;
 use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
 use outputs::FIRST_REQUEST_ID;
-use xrce_proto::cdr::{Encode, Writer};
-use xrce_proto::message::{encode_single_kind, Submessages};
+use xrce_proto::message::{encode_single_bytes, encode_single_kind, Submessages};
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{id, info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat};
 use xrce_proto::{
@@ -772,7 +771,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 (SessionState::Deleting, Some(true)) => {
                     let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
                     let header = st.header(StreamId::NONE);
-                    return encode_single_kind(out, &header, id::DELETE, |w| req.encode(w)).ok();
+                    return encode_single_bytes(out, &header, id::DELETE, &req.to_bytes()).ok();
                 }
                 (SessionState::Creating, None) if st.live.recreating() => {
                     // The agent went again before answering: back to the attempts.
@@ -803,7 +802,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         let header = st.header(StreamId::NONE);
         if st.live.probe_due(now) {
-            return encode_single_kind(out, &header, id::GET_INFO, |w| liveness_probe().encode(w)).ok();
+            return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
         }
         if let Some(request) = st.info_reply.take() {
             let reply = BaseObjectReply {
@@ -811,19 +810,15 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
             };
             // An INFO with neither configuration nor activity: the reply and two absent optionals.
-            let info = |w: &mut Writer<'_>| {
-                reply.encode(w);
-                w.write_bool(false);
-                w.write_bool(false);
-            };
-            return encode_single_kind(out, &header, id::INFO, info).ok();
+            let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
+            return encode_single_bytes(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]).ok();
         }
         if let Some(retry) = st.ping_retry.as_mut() {
             match retry.due(now) {
                 Some(true) => {
                     let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
                     let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
-                    return encode_single_kind(out, &header, id::GET_INFO, |w| get.encode(w)).ok();
+                    return encode_single_bytes(out, &header, id::GET_INFO, &get.to_le_bytes()).ok();
                 }
                 Some(false) => {}
                 None => {
@@ -834,13 +829,13 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         if st.sync_pending {
             st.sync_pending = false;
-            return encode_single_kind(out, &header, id::TIMESTAMP, |w| Time::from_nanos(now).encode(w)).ok();
+            return encode_single_bytes(out, &header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes()).ok();
         }
         for (i, s) in self.in_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
             let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
             let ack = AckNack::from_bits(s.acknack(), stream_id);
-            return encode_single_kind(out, &header, id::ACKNACK, |w| ack.encode(w)).ok();
+            return encode_single_bytes(out, &header, id::ACKNACK, &ack.to_le_bytes()).ok();
         }
         for (i, s) in st.out_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut() else { continue };
@@ -850,7 +845,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             }
             if let Some((first, last)) = s.poll_heartbeat(now) {
                 let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
-                return encode_single_kind(out, &header, id::HEARTBEAT, |w| hb.encode(w)).ok();
+                return encode_single_bytes(out, &header, id::HEARTBEAT, &hb.to_le_bytes()).ok();
             }
         }
         for (i, s) in st.out_be.iter_mut().enumerate() {
@@ -959,7 +954,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);
-        return encode_single_kind(out, &header, id::GET_INFO, |w| liveness_probe().encode(w)).ok();
+        return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
     }
     if st.live.take_second_ping() {
         return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);

@@ -83,6 +83,15 @@ pub struct GetInfo {
 }
 codec_struct!(GetInfo { request: BaseObjectRequest, info_mask: u32 });
 
+impl GetInfo {
+    /// Its little-endian CDR bytes at a 4-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 8] {
+        let [r0, r1, o0, o1] = self.request.to_bytes();
+        let [m0, m1, m2, m3] = self.info_mask.to_le_bytes();
+        [r0, r1, o0, o1, m0, m1, m2, m3]
+    }
+}
+
 /// Activity part of an INFO.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ActivityInfo<'a> {
@@ -327,6 +336,13 @@ impl Encode for AckNack {
 }
 
 impl AckNack {
+    /// Its little-endian CDR bytes at a 2-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 5] {
+        let [f0, f1] = self.first_unacked_seq_num.to_le_bytes();
+        let [b0, b1] = self.nack_bitmap;
+        [f0, f1, b0, b1, self.stream_id]
+    }
+
     /// The bitmap as a u16 whose bit i ↔ `first_unacked + i`.
     pub const fn bitmap(&self) -> u16 {
         u16::from_be_bytes(self.nack_bitmap)
@@ -376,6 +392,15 @@ impl Encode for Heartbeat {
     }
 }
 
+impl Heartbeat {
+    /// Its little-endian CDR bytes at a 2-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 5] {
+        let [f0, f1] = self.first_unacked_seq_nr.to_le_bytes();
+        let [l0, l1] = self.last_unacked_seq_nr.to_le_bytes();
+        [f0, f1, l0, l1, self.stream_id]
+    }
+}
+
 /// TIMESTAMP_REPLY (24 bytes, in this order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub struct TimestampReply {
@@ -400,5 +425,46 @@ mod acknack_tests {
         assert_eq!(ack, AckNack { first_unacked_seq_num: 0x0102, nack_bitmap: [0x80, 0x05], stream_id: 0x80 });
         assert_eq!(ack.bits(), bits);
         assert_eq!(ack.bitmap(), bits.bitmap);
+    }
+}
+
+#[cfg(test)]
+mod le_bytes_tests {
+    use super::{AckNack, GetInfo, Heartbeat};
+    use crate::cdr::{Encode, Endianness, Writer};
+    use crate::types::{BaseObjectReply, BaseObjectRequest, ObjectId, RequestId, ResultStatus, StatusCode, Time};
+
+    /// What the CDR writer makes of `v`, little endian from a 4-aligned position.
+    fn cdr<T: Encode>(v: &T) -> ([u8; 16], usize) {
+        let mut buf = [0u8; 16];
+        let mut w = Writer::new(&mut buf, Endianness::Little);
+        v.encode(&mut w);
+        let n = w.finish().unwrap();
+        (buf, n)
+    }
+
+    fn same<T: Encode>(v: &T, bytes: &[u8]) {
+        let (buf, n) = cdr(v);
+        assert_eq!(&buf[..n], bytes);
+    }
+
+    #[test]
+    fn fixed_payloads_are_what_the_writer_makes() {
+        let request = BaseObjectRequest { request_id: RequestId(0x1234), object_id: ObjectId([0x56, 0x78]) };
+        same(&request, &request.to_bytes());
+        let get = GetInfo { request, info_mask: 0x0A0B_0C0D };
+        same(&get, &get.to_le_bytes());
+        let reply = BaseObjectReply {
+            related_request: request,
+            result: ResultStatus { status: StatusCode(0x80), implementation_status: 1 },
+        };
+        same(&reply, &reply.to_bytes());
+        for t in [Time { seconds: -2, nanoseconds: 999_999_999 }, Time { seconds: 0x0102_0304, nanoseconds: 5 }] {
+            same(&t, &t.to_le_bytes());
+        }
+        let ack = AckNack { first_unacked_seq_num: 0xFFFE, nack_bitmap: [0x80, 0x01], stream_id: 0x80 };
+        same(&ack, &ack.to_le_bytes());
+        let hb = Heartbeat { first_unacked_seq_nr: 0x0102, last_unacked_seq_nr: 0xFF00, stream_id: 0x81 };
+        same(&hb, &hb.to_le_bytes());
     }
 }
