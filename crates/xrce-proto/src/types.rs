@@ -607,7 +607,33 @@ impl Encode for BaseObjectReply {
         self.result.encode(w);
     }
 }
-codec_struct!(Time { seconds: i32, nanoseconds: u32 });
+// Both fields under one alignment and one bounds check (firmware size): the second is aligned after the first.
+impl<'a> Decode<'a> for Time {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        r.align(4)?;
+        Ok(Self::from_bytes(r.read_array()?, r.endianness()))
+    }
+}
+
+impl Time {
+    /// The time in `bytes`, its CDR form in byte order `endian` (at a 4-aligned position).
+    pub const fn from_bytes([s0, s1, s2, s3, n0, n1, n2, n3]: [u8; 8], endian: crate::cdr::Endianness) -> Self {
+        let (s, n) = ([s0, s1, s2, s3], [n0, n1, n2, n3]);
+        match endian {
+            crate::cdr::Endianness::Little => {
+                Self { seconds: i32::from_le_bytes(s), nanoseconds: u32::from_le_bytes(n) }
+            }
+            crate::cdr::Endianness::Big => Self { seconds: i32::from_be_bytes(s), nanoseconds: u32::from_be_bytes(n) },
+        }
+    }
+}
+
+impl Encode for Time {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.seconds.encode(w);
+        self.nanoseconds.encode(w);
+    }
+}
 codec_struct!(Guid { prefix: [u8; 12], entity_key: [u8; 3], entity_kind: u8 });
 codec_struct!(SequenceNumber { high: i32, low: u32 });
 codec_struct!(SampleIdentity { writer_guid: Guid, sequence_number: SequenceNumber });

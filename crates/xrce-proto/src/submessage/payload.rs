@@ -411,7 +411,26 @@ pub struct TimestampReply {
     /// The client's transmit timestamp, echoed.
     pub originate_timestamp: Time,
 }
-codec_struct!(TimestampReply { transmit_timestamp: Time, receive_timestamp: Time, originate_timestamp: Time });
+// The three times under one alignment and one bounds check (firmware size): each is 4-aligned after the first.
+impl<'a> Decode<'a> for TimestampReply {
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        r.align(4)?;
+        let e = r.endianness();
+        Ok(Self {
+            transmit_timestamp: Time::from_bytes(r.read_array()?, e),
+            receive_timestamp: Time::from_bytes(r.read_array()?, e),
+            originate_timestamp: Time::from_bytes(r.read_array()?, e),
+        })
+    }
+}
+
+impl Encode for TimestampReply {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.transmit_timestamp.encode(w);
+        self.receive_timestamp.encode(w);
+        self.originate_timestamp.encode(w);
+    }
+}
 
 #[cfg(test)]
 mod acknack_tests {
@@ -446,6 +465,37 @@ mod le_bytes_tests {
     fn same<T: Encode>(v: &T, bytes: &[u8]) {
         let (buf, n) = cdr(v);
         assert_eq!(&buf[..n], bytes);
+    }
+
+    #[test]
+    fn times_read_as_fields_would() {
+        use super::TimestampReply;
+        use crate::cdr::{Decode, Error, Reader};
+        let bytes: [u8; 29] = core::array::from_fn(|i| (i as u8).wrapping_mul(37));
+        for endian in [Endianness::Little, Endianness::Big] {
+            for pos in 0..6 {
+                let by_fields = |r: &mut Reader<'_>| -> Result<[Time; 3], Error> {
+                    let mut t = [Time::default(); 3];
+                    for x in &mut t {
+                        *x = Time { seconds: r.read_i32()?, nanoseconds: r.read_u32()? };
+                    }
+                    Ok(t)
+                };
+                let mut a = Reader::with_origin(&bytes, pos, 0, endian);
+                let mut b = a;
+                let expected = by_fields(&mut a);
+                let got = TimestampReply::decode(&mut b)
+                    .map(|t| [t.transmit_timestamp, t.receive_timestamp, t.originate_timestamp]);
+                assert_eq!(got, expected, "{endian:?} {pos}");
+                if got.is_ok() {
+                    assert_eq!(a.position(), b.position());
+                }
+                let mut c = Reader::with_origin(&bytes[..pos + 9], pos, 0, endian);
+                let mut d = c;
+                let one = (|| Ok::<_, Error>(Time { seconds: d.read_i32()?, nanoseconds: d.read_u32()? }))();
+                assert_eq!(Time::decode(&mut c), one, "{endian:?} {pos}");
+            }
+        }
     }
 
     #[test]
