@@ -403,6 +403,18 @@ pub struct SampleIdentity {
 impl SampleIdentity {
     /// Encoded size.
     pub const SIZE: usize = 24;
+
+    /// The identity in `bytes`, its little-endian CDR form (from a 4-aligned position).
+    pub const fn from_le_bytes(bytes: &[u8; Self::SIZE]) -> Self {
+        let [prefix @ .., k0, k1, k2, entity_kind, h0, h1, h2, h3, l0, l1, l2, l3] = *bytes;
+        Self {
+            writer_guid: Guid { prefix, entity_key: [k0, k1, k2], entity_kind },
+            sequence_number: SequenceNumber {
+                high: i32::from_le_bytes([h0, h1, h2, h3]),
+                low: u32::from_le_bytes([l0, l1, l2, l3]),
+            },
+        }
+    }
 }
 
 /// Where an agent can be reached (spec §5.6).
@@ -551,7 +563,7 @@ impl Encode for RequestId {
 // Bytes without alignment: each of these is read as one array (one bounds check rather than one per field).
 
 impl BaseObjectRequest {
-    const fn from_bytes([r0, r1, o0, o1]: [u8; 4]) -> Self {
+    pub(crate) const fn from_bytes([r0, r1, o0, o1]: [u8; 4]) -> Self {
         Self { request_id: RequestId(u16::from_be_bytes([r0, r1])), object_id: ObjectId([o0, o1]) }
     }
 }

@@ -214,16 +214,15 @@ pub struct DataPayload<'a> {
 impl<'a> DataPayload<'a> {
     /// Splits a leading [`SampleIdentity`] off the data (replier traffic).
     pub fn split_sample_identity(&self) -> Result<(SampleIdentity, &'a [u8])> {
-        let mut r = Reader::new(self.data, crate::cdr::Endianness::Little);
-        let identity = SampleIdentity::decode(&mut r)?;
-        Ok((identity, r.rest()))
+        // A fixed layout read under one bounds check (firmware size).
+        let (identity, rest) = self.data.split_first_chunk().ok_or(Error::Truncated)?;
+        Ok((SampleIdentity::from_le_bytes(identity), rest))
     }
 
     /// Splits a leading [`BaseObjectRequest`] off the data (requester reply DATA).
     pub fn split_base_request(&self) -> Result<(BaseObjectRequest, &'a [u8])> {
-        let mut r = Reader::new(self.data, crate::cdr::Endianness::Little);
-        let base = BaseObjectRequest::decode(&mut r)?;
-        Ok((base, r.rest()))
+        let (base, rest) = self.data.split_first_chunk().ok_or(Error::Truncated)?;
+        Ok((BaseObjectRequest::from_bytes(*base), rest))
     }
 }
 
@@ -495,6 +494,25 @@ mod le_bytes_tests {
                 let one = (|| Ok::<_, Error>(Time { seconds: d.read_i32()?, nanoseconds: d.read_u32()? }))();
                 assert_eq!(Time::decode(&mut c), one, "{endian:?} {pos}");
             }
+        }
+    }
+
+    #[test]
+    fn data_splits_read_as_the_decoders_would() {
+        use super::DataPayload;
+        use crate::cdr::{Decode, Reader};
+        use crate::types::SampleIdentity;
+        let bytes: [u8; 27] = core::array::from_fn(|i| (i as u8).wrapping_mul(53).wrapping_add(7));
+        for len in [0, 3, 4, 23, 24, 27] {
+            let data = &bytes[..len];
+            let d = DataPayload { request: BaseObjectRequest::default(), format: super::DataFormat::DATA, data };
+            let mut r = Reader::new(data, Endianness::Little);
+            let expected = SampleIdentity::decode(&mut r).map(|i| (i, r.rest()));
+            assert_eq!(d.split_sample_identity(), expected);
+            let mut r = Reader::new(data, Endianness::Little);
+            let expected = BaseObjectRequest::decode(&mut r).map(|b| (b, r.rest()));
+            assert_eq!(d.split_base_request(), expected);
+            assert_eq!(expected.is_err(), len < 4);
         }
     }
 
