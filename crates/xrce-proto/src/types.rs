@@ -590,9 +590,19 @@ impl Encode for ResultStatus {
     }
 }
 
+// These decoders can only fail on truncation: the work is done returning an `Option` (firmware size, see
+// `Reader::read_array_opt`).
 impl<'a> Decode<'a> for BaseObjectRequest {
+    #[inline(always)]
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        r.read_array().map(Self::from_bytes)
+        Self::read_opt(r).ok_or(crate::cdr::Error::Truncated)
+    }
+}
+
+impl BaseObjectRequest {
+    #[inline(never)]
+    fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        r.read_array_opt().map(Self::from_bytes)
     }
 }
 
@@ -604,9 +614,17 @@ impl Encode for BaseObjectRequest {
 }
 
 impl<'a> Decode<'a> for BaseObjectReply {
+    #[inline(always)]
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        let [r0, r1, o0, o1, status, implementation_status] = r.read_array()?;
-        Ok(Self {
+        Self::read_opt(r).ok_or(crate::cdr::Error::Truncated)
+    }
+}
+
+impl BaseObjectReply {
+    #[inline(never)]
+    fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        let [r0, r1, o0, o1, status, implementation_status] = r.read_array_opt()?;
+        Some(Self {
             related_request: BaseObjectRequest::from_bytes([r0, r1, o0, o1]),
             result: ResultStatus { status: StatusCode(status), implementation_status },
         })
@@ -619,24 +637,17 @@ impl Encode for BaseObjectReply {
         self.result.encode(w);
     }
 }
-// Both fields under one alignment and one bounds check (firmware size): the second is aligned after the first.
+// Only truncation can fail: read as an `Option` (firmware size, see `Reader::read_array_opt`).
 impl<'a> Decode<'a> for Time {
+    #[inline(always)]
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        r.align(4)?;
-        Ok(Self::from_bytes(r.read_array()?, r.endianness()))
+        Self::read_opt(r).ok_or(crate::cdr::Error::Truncated)
     }
 }
 
 impl Time {
-    /// The time in `bytes`, its CDR form in byte order `endian` (at a 4-aligned position).
-    pub const fn from_bytes([s0, s1, s2, s3, n0, n1, n2, n3]: [u8; 8], endian: crate::cdr::Endianness) -> Self {
-        let (s, n) = ([s0, s1, s2, s3], [n0, n1, n2, n3]);
-        match endian {
-            crate::cdr::Endianness::Little => {
-                Self { seconds: i32::from_le_bytes(s), nanoseconds: u32::from_le_bytes(n) }
-            }
-            crate::cdr::Endianness::Big => Self { seconds: i32::from_be_bytes(s), nanoseconds: u32::from_be_bytes(n) },
-        }
+    pub(crate) fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        Some(Self { seconds: r.read_u32_opt()? as i32, nanoseconds: r.read_u32_opt()? })
     }
 }
 

@@ -410,15 +410,20 @@ pub struct TimestampReply {
     /// The client's transmit timestamp, echoed.
     pub originate_timestamp: Time,
 }
-// The three times under one alignment and one bounds check (firmware size): each is 4-aligned after the first.
+// Only truncation can fail: read as an `Option` (firmware size, see `Reader::read_array_opt`).
 impl<'a> Decode<'a> for TimestampReply {
+    #[inline(always)]
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        r.align(4)?;
-        let e = r.endianness();
-        Ok(Self {
-            transmit_timestamp: Time::from_bytes(r.read_array()?, e),
-            receive_timestamp: Time::from_bytes(r.read_array()?, e),
-            originate_timestamp: Time::from_bytes(r.read_array()?, e),
+        Self::read_opt(r).ok_or(Error::Truncated)
+    }
+}
+
+impl TimestampReply {
+    fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        Some(Self {
+            transmit_timestamp: Time::read_opt(r)?,
+            receive_timestamp: Time::read_opt(r)?,
+            originate_timestamp: Time::read_opt(r)?,
         })
     }
 }
