@@ -209,9 +209,12 @@ fn encode_single_dyn(
     id: u8,
     payload: &mut dyn FnMut(&mut Writer<'_>),
 ) -> Result<usize> {
-    let mut b = MessageBuilder::new(out, header)?;
-    b.push_with(Endianness::Little, |w| write_submessage(w, id, 0, payload))?;
-    Ok(b.finish())
+    // What `MessageBuilder` does for one submessage, without its bookkeeping (firmware size): a header's 4 or 8
+    // bytes leave the submessage aligned.
+    let hs = header.encode(out)?;
+    let mut w = Writer::with_origin(out, hs, 0, Endianness::Little);
+    write_submessage(&mut w, id, 0, payload);
+    w.finish()
 }
 
 /// Encodes a message made of `header` and one submessage into `out`; returns its length.
