@@ -748,7 +748,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                     let token =
                         st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
                     let none = xrce_proto::Property { name: "", value: "" };
-                    let mut props = [none; 3];
+                    // Room for the properties this build can send (firmware size: one without reconnection or PSK).
+                    let mut props = [none; 1 + RECONNECT as usize + cfg!(feature = "psk") as usize];
                     let mut n = 0;
                     if st.packed_input {
                         add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
