@@ -416,13 +416,6 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         Ok(StreamId::from_index(index, StreamKind::Reliable))
     }
 
-    fn reset_streams(&mut self) {
-        self.st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
-        self.st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
-        self.st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
-        self.in_rel.iter_mut().flatten().for_each(InputReliable::reset);
-    }
-
     /// The output side, to write entity requests and data (also reachable through [`crate::WriteAccess`]).
     pub fn outputs(&mut self) -> Outputs<'_, 'a> {
         self.st.outputs()
@@ -488,7 +481,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             // created the session); the next creation gets a fresh one.
             *nonce = nonce.wrapping_add(1);
         }
-        self.reset_streams();
+        reset_streams(&mut self.st, &mut self.in_rel, true);
         self.st.live.set_recreating(false);
         fail_pending_ping(&mut self.st);
         self.st.state = SessionState::Creating;
@@ -889,6 +882,21 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     }
 }
 
+/// Every stream back to its start, but the reliable output ones unless `reliable_output` (a session created).
+/// One function for the two places that do it (firmware size).
+fn reset_streams<const OBE: usize, const ORE: usize, const IBE: usize>(
+    st: &mut State<'_, OBE, ORE, IBE>,
+    in_rel: &mut [Option<InputReliable<'_>>],
+    reliable_output: bool,
+) {
+    st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
+    if reliable_output {
+        st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+    }
+    st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
+    in_rel.iter_mut().flatten().for_each(InputReliable::reset);
+}
+
 /// Puts `p` in the next free slot of `props` (CREATE_CLIENT properties).
 fn add_property<'p>(props: &mut [xrce_proto::Property<'p>], n: &mut usize, p: xrce_proto::Property<'p>) {
     if let Some(slot) = props.get_mut(*n) {
@@ -1003,16 +1011,14 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                 } else if result.status == StatusCode::OK {
                     st.state = SessionState::Established;
                     st.live.heard(now);
-                    st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
                     if RECONNECT && recreated {
                         // The agent restarted its streams; what it did not acknowledge goes again, renumbered.
                         st.out_rel.iter_mut().flatten().for_each(OutputReliable::rebase);
                         st.live.push(SessionEvent::Restored { recreated: true });
+                        reset_streams(st, in_rel, false);
                     } else {
-                        st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+                        reset_streams(st, in_rel, true);
                     }
-                    st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
-                    in_rel.iter_mut().flatten().for_each(InputReliable::reset);
                 } else if RECONNECT && recreated {
                     // Refused for now (the agent is full, say): keep trying.
                     st.state = SessionState::Reconnecting;
