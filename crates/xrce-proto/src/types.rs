@@ -108,11 +108,8 @@ impl StreamId {
 
     /// Index of the stream among those of its kind.
     pub const fn index(self) -> u8 {
-        match self.kind() {
-            StreamKind::None => 0,
-            StreamKind::BestEffort => self.0 - 1,
-            StreamKind::Reliable => self.0 - 0x80,
-        }
+        // Branch-free (firmware size): 0 stays 0, 1..=0x7F lose 1, 0x80.. lose 0x80.
+        (self.0 & 0x7F).saturating_sub((self.0 < 0x80) as u8)
     }
 
     /// Whether the stream is reliable.
@@ -664,6 +661,18 @@ codec_struct!(SampleIdentity { writer_guid: Guid, sequence_number: SequenceNumbe
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stream_index_of_every_id() {
+        for id in 0..=u8::MAX {
+            let expected = match StreamId(id).kind() {
+                StreamKind::None => 0,
+                StreamKind::BestEffort => id - 1,
+                StreamKind::Reliable => id - 0x80,
+            };
+            assert_eq!(StreamId(id).index(), expected, "{id:#x}");
+        }
+    }
 
     #[test]
     fn object_ids_follow_the_spec_examples() {
