@@ -727,6 +727,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     #[inline(never)]
     pub fn poll_transmit(&mut self, now: i64, out: &mut [u8]) -> Option<usize> {
         let st = &mut self.st;
+        // Built once for every message this sends outside a stream (firmware size).
+        let header = st.header(StreamId::NONE);
         if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {
             recreate(st, now);
         }
@@ -734,7 +736,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if let Some(retry) = st.session_retry.as_mut() {
             match (st.state, retry.due(now)) {
                 (SessionState::Creating, Some(true)) => {
-                    let header = MessageHeader::new(session_none_for(st.session_id), StreamId::NONE, 0, st.key);
+                    // Out of session: another id, with the key exactly when the session's carries it.
+                    let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
                     let mtu = ClientRepresentation::mtu_for(st.mtu);
                     let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
                     #[cfg(feature = "psk")]
@@ -764,7 +767,6 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 }
                 (SessionState::Deleting, Some(true)) => {
                     let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
-                    let header = st.header(StreamId::NONE);
                     return encode_single_bytes(out, &header, id::DELETE, &req.to_bytes()).ok();
                 }
                 (SessionState::Creating, None) if st.live.recreating() => {
@@ -794,7 +796,6 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if st.state != SessionState::Established {
             return None;
         }
-        let header = st.header(StreamId::NONE);
         if st.live.probe_due(now) {
             return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
         }
