@@ -856,18 +856,16 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// The earliest time something will be due without new input (a retry, a heartbeat), if any.
     pub fn poll_timeout(&self) -> Option<i64> {
         let st = &self.st;
-        // A plain fold: the iterator chain it replaces cost a microcontroller ~200 bytes of code.
+        // A plain fold, each candidate folded by one closure (firmware size: iterator chains cost ~200 bytes).
         let mut next = i64::MAX;
-        for retry in [&st.session_retry, &st.ping_retry].into_iter().flatten() {
-            next = next.min(retry.next);
-        }
+        let mut earlier = |t: Option<i64>| next = next.min(t.unwrap_or(i64::MAX));
+        earlier(st.session_retry.map(|r| r.next));
+        earlier(st.ping_retry.map(|r| r.next));
         let established = st.state == SessionState::Established;
-        if let Some(t) = st.live.timeout(established, st.state == SessionState::Reconnecting) {
-            next = next.min(t);
-        }
+        earlier(st.live.timeout(established, st.state == SessionState::Reconnecting));
         // Streams only send in an established session; their timers wait meanwhile.
-        for stream in st.out_rel.iter().flatten().filter(|_| established) {
-            next = next.min(stream.timeout().unwrap_or(i64::MAX));
+        if established {
+            st.out_rel.iter().flatten().for_each(|stream| earlier(stream.timeout()));
         }
         (next != i64::MAX).then_some(next)
     }
