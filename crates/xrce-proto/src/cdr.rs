@@ -324,6 +324,8 @@ impl<'a> Reader<'a> {
     }
 
     /// Decodes a value.
+    // Always inlined: a forwarder whose out-of-line copy returned its `Result` through memory (firmware size).
+    #[inline(always)]
     pub fn read<T: Decode<'a>>(&mut self) -> Result<T> {
         T::decode(self)
     }
