@@ -251,6 +251,8 @@ struct Retry {
 
 impl Retry {
     /// Whether to send now; `None` when attempts are exhausted and the last wait is over.
+    // Always inlined at its two callers (firmware size).
+    #[inline(always)]
     fn due(&mut self, now: i64) -> Option<bool> {
         if now < self.next {
             return Some(false);
