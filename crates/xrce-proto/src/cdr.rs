@@ -121,15 +121,21 @@ pub struct Reader<'a> {
 }
 
 macro_rules! read_prim {
-    ($name:ident, $t:ty, $n:expr) => {
+    ($name:ident, $opt:ident, $t:ty, $n:expr) => {
         #[doc = concat!("Reads an aligned `", stringify!($t), "`.")]
         #[inline]
         pub fn $name(&mut self) -> Result<$t> {
+            self.$opt().ok_or(Error::Truncated)
+        }
+
+        // The read proper returns an `Option`, which comes back in registers where a `Result` (12 bytes) goes
+        // through memory at every call (firmware size).
+        pub(crate) fn $opt(&mut self) -> Option<$t> {
             // Aligned and read under one bounds check (the position moves only when the value is there).
             let at = self.pos.saturating_add(padding(self.pos.wrapping_sub(self.origin), $n));
-            let bytes = *self.buf.get(at..).and_then(<[u8]>::first_chunk::<$n>).ok_or(Error::Truncated)?;
+            let bytes = *self.buf.get(at..).and_then(<[u8]>::first_chunk::<$n>)?;
             self.pos = at + $n;
-            Ok(match self.endian {
+            Some(match self.endian {
                 Endianness::Little => <$t>::from_le_bytes(bytes),
                 Endianness::Big => <$t>::from_be_bytes(bytes),
             })
@@ -214,10 +220,17 @@ impl<'a> Reader<'a> {
     /// Reads a fixed-size raw byte array (no alignment).
     #[inline]
     pub fn read_array<const N: usize>(&mut self) -> Result<[u8; N]> {
-        let bytes = self.buf.get(self.pos..).and_then(<[u8]>::first_chunk::<N>).ok_or(Error::Truncated)?;
+        self.read_array_opt().ok_or(Error::Truncated)
+    }
+
+    /// [`read_array`](Self::read_array) returning an `Option`, for decoders that can only fail on truncation: an
+    /// `Option` comes back in registers where a `Result` often goes through memory (firmware size).
+    #[inline]
+    pub(crate) fn read_array_opt<const N: usize>(&mut self) -> Option<[u8; N]> {
+        let bytes = self.buf.get(self.pos..).and_then(<[u8]>::first_chunk::<N>)?;
         // `pos + N` is at most the buffer's length: no overflow.
         self.pos += N;
-        Ok(*bytes)
+        Some(*bytes)
     }
 
     /// Reads one byte.
@@ -234,7 +247,8 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads a boolean, rejecting bytes other than 0 and 1 (hostile input must not be silently accepted).
-    #[inline]
+    // Always inlined: out of line, its `Result` went through memory at every call (120 bytes of firmware).
+    #[inline(always)]
     pub fn read_bool(&mut self) -> Result<bool> {
         match self.read_u8()? {
             0 => Ok(false),
@@ -243,9 +257,9 @@ impl<'a> Reader<'a> {
         }
     }
 
-    read_prim!(read_u16, u16, 2);
-    read_prim!(read_u32, u32, 4);
-    read_prim!(read_u64, u64, 8);
+    read_prim!(read_u16, read_u16_opt, u16, 2);
+    read_prim!(read_u32, read_u32_opt, u32, 4);
+    read_prim!(read_u64, read_u64_opt, u64, 8);
 
     // The signed reads share the unsigned ones' code (one instance less per width in a firmware).
 
@@ -266,8 +280,8 @@ impl<'a> Reader<'a> {
     pub fn read_i64(&mut self) -> Result<i64> {
         self.read_u64().map(|v| v as i64)
     }
-    read_prim!(read_f32, f32, 4);
-    read_prim!(read_f64, f64, 8);
+    read_prim!(read_f32, read_f32_opt, f32, 4);
+    read_prim!(read_f64, read_f64_opt, f64, 8);
 
     /// Reads a string: `u32` length including the NUL, the characters, the NUL.
     /// A length of 0 is accepted as the empty string (Fast-CDR does so).
@@ -310,6 +324,8 @@ impl<'a> Reader<'a> {
     }
 
     /// Decodes a value.
+    // Always inlined: a forwarder whose out-of-line copy returned its `Result` through memory (firmware size).
+    #[inline(always)]
     pub fn read<T: Decode<'a>>(&mut self) -> Result<T> {
         T::decode(self)
     }

@@ -185,26 +185,31 @@ pub fn encode_single_kind(
     id: u8,
     payload: impl FnOnce(&mut Writer<'_>),
 ) -> Result<usize> {
-    let mut payload = Some(payload);
-    encode_single_dyn(out, header, id, &mut |w| {
-        if let Some(p) = payload.take() {
-            p(w);
-        }
-    })
+    // What `MessageBuilder` does for one submessage, without its bookkeeping (firmware size): a header's 4 or 8
+    // bytes leave the submessage aligned.
+    let hs = header.encode(out)?;
+    let mut w = Writer::with_origin(out, hs, 0, Endianness::Little);
+    write_submessage(&mut w, id, 0, payload);
+    w.finish()
 }
 
-/// [`encode_single_kind`]'s body, compiled once: a client sends ten kinds from as many places, and a copy of the
-/// builder in each was ~0.5 KB of firmware.
-#[inline(never)]
-fn encode_single_dyn(
-    out: &mut [u8],
-    header: &MessageHeader,
-    id: u8,
-    payload: &mut dyn FnMut(&mut Writer<'_>),
-) -> Result<usize> {
-    let mut b = MessageBuilder::new(out, header)?;
-    b.push_with(Endianness::Little, |w| write_submessage(w, id, 0, payload))?;
-    Ok(b.finish())
+/// Encodes a message made of `header` and one little-endian submessage `id` whose payload is `payload`, already
+/// in its wire form (a payload starts 4-aligned); returns its length, or the size needed when `out` is too
+/// small. One body for every fixed-size kind, without a CDR writer (firmware size).
+pub fn encode_single_bytes(out: &mut [u8], header: &MessageHeader, id: u8, payload: &[u8]) -> Result<usize> {
+    let length = u16::try_from(payload.len()).map_err(|_| Error::TooLong(crate::cdr::LengthField::Submessage))?;
+    let start = header.size() + SubmessageHeader::SIZE;
+    let end = start + payload.len();
+    let dst = out.get_mut(..end).ok_or(Error::BufferTooSmall { needed: end })?;
+    let hs = header.encode(dst)?;
+    let sub = SubmessageHeader { id, flags: Endianness::Little.flag(), length }.to_bytes();
+    if let Some(d) = dst.get_mut(hs..) {
+        crate::bytes::copy(d, &sub);
+    }
+    if let Some(d) = dst.get_mut(start..) {
+        crate::bytes::copy(d, payload);
+    }
+    Ok(end)
 }
 
 /// Encodes a message made of `header` and one submessage into `out`; returns its length.
@@ -268,6 +273,23 @@ mod tests {
         let hb = Submessage::Heartbeat(Heartbeat::default());
         assert_eq!(b.push(&hb, Endianness::Little), Err(Error::BufferTooSmall { needed: 13 }));
         assert_eq!(b.len(), 4);
+    }
+
+    #[test]
+    fn single_bytes_is_single_kind() {
+        let hb = Heartbeat { first_unacked_seq_nr: 3, last_unacked_seq_nr: 0x0102, stream_id: 0x80 };
+        for session_id in [0x81, 0x01] {
+            let header = MessageHeader::new(session_id, StreamId(0), 0, ClientKey([1, 2, 3, 4]));
+            let (mut a, mut b) = ([0u8; 32], [0u8; 32]);
+            let n = encode_single_kind(&mut a, &header, id::HEARTBEAT, |w| crate::cdr::Encode::encode(&hb, w));
+            assert_eq!(encode_single_bytes(&mut b, &header, id::HEARTBEAT, &hb.to_le_bytes()), n);
+            assert_eq!(a, b);
+            let short = n.unwrap() - 1;
+            assert_eq!(
+                encode_single_bytes(&mut b[..short], &header, id::HEARTBEAT, &hb.to_le_bytes()),
+                Err(Error::BufferTooSmall { needed: short + 1 })
+            );
+        }
     }
 
     #[test]

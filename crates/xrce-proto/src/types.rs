@@ -108,11 +108,8 @@ impl StreamId {
 
     /// Index of the stream among those of its kind.
     pub const fn index(self) -> u8 {
-        match self.kind() {
-            StreamKind::None => 0,
-            StreamKind::BestEffort => self.0 - 1,
-            StreamKind::Reliable => self.0 - 0x80,
-        }
+        // Branch-free (firmware size): 0 stays 0, 1..=0x7F lose 1, 0x80.. lose 0x80.
+        (self.0 & 0x7F).saturating_sub((self.0 < 0x80) as u8)
     }
 
     /// Whether the stream is reliable.
@@ -358,6 +355,13 @@ impl Time {
         Self { seconds: seconds as i32, nanoseconds }
     }
 
+    /// Its little-endian CDR bytes at a 4-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 8] {
+        let [s0, s1, s2, s3] = self.seconds.to_le_bytes();
+        let [n0, n1, n2, n3] = self.nanoseconds.to_le_bytes();
+        [s0, s1, s2, s3, n0, n1, n2, n3]
+    }
+
     /// Nanoseconds since the epoch.
     pub const fn as_nanos(self) -> i64 {
         self.seconds as i64 * 1_000_000_000 + self.nanoseconds as i64
@@ -396,6 +400,18 @@ pub struct SampleIdentity {
 impl SampleIdentity {
     /// Encoded size.
     pub const SIZE: usize = 24;
+
+    /// The identity in `bytes`, its little-endian CDR form (from a 4-aligned position).
+    pub const fn from_le_bytes(bytes: &[u8; Self::SIZE]) -> Self {
+        let [prefix @ .., k0, k1, k2, entity_kind, h0, h1, h2, h3, l0, l1, l2, l3] = *bytes;
+        Self {
+            writer_guid: Guid { prefix, entity_key: [k0, k1, k2], entity_kind },
+            sequence_number: SequenceNumber {
+                high: i32::from_le_bytes([h0, h1, h2, h3]),
+                low: u32::from_le_bytes([l0, l1, l2, l3]),
+            },
+        }
+    }
 }
 
 /// Where an agent can be reached (spec §5.6).
@@ -544,8 +560,16 @@ impl Encode for RequestId {
 // Bytes without alignment: each of these is read as one array (one bounds check rather than one per field).
 
 impl BaseObjectRequest {
-    const fn from_bytes([r0, r1, o0, o1]: [u8; 4]) -> Self {
+    pub(crate) const fn from_bytes([r0, r1, o0, o1]: [u8; 4]) -> Self {
         Self { request_id: RequestId(u16::from_be_bytes([r0, r1])), object_id: ObjectId([o0, o1]) }
+    }
+}
+
+impl BaseObjectReply {
+    /// Its CDR bytes (no alignment, no byte order).
+    pub const fn to_bytes(&self) -> [u8; 6] {
+        let [r0, r1, o0, o1] = self.related_request.to_bytes();
+        [r0, r1, o0, o1, self.result.status.0, self.result.implementation_status]
     }
 }
 
@@ -563,9 +587,19 @@ impl Encode for ResultStatus {
     }
 }
 
+// These decoders can only fail on truncation: the work is done returning an `Option` (firmware size, see
+// `Reader::read_array_opt`).
 impl<'a> Decode<'a> for BaseObjectRequest {
+    #[inline(always)]
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        r.read_array().map(Self::from_bytes)
+        Self::read_opt(r).ok_or(crate::cdr::Error::Truncated)
+    }
+}
+
+impl BaseObjectRequest {
+    #[inline(never)]
+    fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        r.read_array_opt().map(Self::from_bytes)
     }
 }
 
@@ -577,9 +611,17 @@ impl Encode for BaseObjectRequest {
 }
 
 impl<'a> Decode<'a> for BaseObjectReply {
+    #[inline(always)]
     fn decode(r: &mut Reader<'a>) -> Result<Self> {
-        let [r0, r1, o0, o1, status, implementation_status] = r.read_array()?;
-        Ok(Self {
+        Self::read_opt(r).ok_or(crate::cdr::Error::Truncated)
+    }
+}
+
+impl BaseObjectReply {
+    #[inline(never)]
+    fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        let [r0, r1, o0, o1, status, implementation_status] = r.read_array_opt()?;
+        Some(Self {
             related_request: BaseObjectRequest::from_bytes([r0, r1, o0, o1]),
             result: ResultStatus { status: StatusCode(status), implementation_status },
         })
@@ -592,7 +634,28 @@ impl Encode for BaseObjectReply {
         self.result.encode(w);
     }
 }
-codec_struct!(Time { seconds: i32, nanoseconds: u32 });
+// Only truncation can fail: read as an `Option` (firmware size, see `Reader::read_array_opt`).
+impl<'a> Decode<'a> for Time {
+    #[inline(always)]
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Self::read_opt(r).ok_or(crate::cdr::Error::Truncated)
+    }
+}
+
+impl Time {
+    // Always inlined into TIMESTAMP_REPLY's three reads (firmware size: 72 bytes less than calls).
+    #[inline(always)]
+    pub(crate) fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        Some(Self { seconds: r.read_u32_opt()? as i32, nanoseconds: r.read_u32_opt()? })
+    }
+}
+
+impl Encode for Time {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.seconds.encode(w);
+        self.nanoseconds.encode(w);
+    }
+}
 codec_struct!(Guid { prefix: [u8; 12], entity_key: [u8; 3], entity_kind: u8 });
 codec_struct!(SequenceNumber { high: i32, low: u32 });
 codec_struct!(SampleIdentity { writer_guid: Guid, sequence_number: SequenceNumber });
@@ -600,6 +663,18 @@ codec_struct!(SampleIdentity { writer_guid: Guid, sequence_number: SequenceNumbe
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stream_index_of_every_id() {
+        for id in 0..=u8::MAX {
+            let expected = match StreamId(id).kind() {
+                StreamKind::None => 0,
+                StreamKind::BestEffort => id - 1,
+                StreamKind::Reliable => id - 0x80,
+            };
+            assert_eq!(StreamId(id).index(), expected, "{id:#x}");
+        }
+    }
 
     #[test]
     fn object_ids_follow_the_spec_examples() {

@@ -293,12 +293,10 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
             self.service(core, h)?;
             self.send_pending(core)?;
             let now = self.clock.now_nanos();
-            let until_deadline = deadline.map(|d| (d - now).max(0));
-            let until_timer = core.poll_timeout().map(|t| (t - now).max(0));
-            let mut wait = match (until_deadline, until_timer) {
-                (Some(a), Some(b)) => Some(a.min(b)),
-                (a, b) => a.or(b),
-            };
+            // The earlier of the deadline and the next timer, i64::MAX for neither (firmware size: one
+            // subtraction, no arithmetic on `Option<i64>`).
+            let until = deadline.unwrap_or(i64::MAX).min(core.poll_timeout().unwrap_or(i64::MAX));
+            let mut wait = (until != i64::MAX).then(|| (until - now).max(0));
             if let Some(reopen) = self.until_reopen(now) {
                 wait = Some(wait.map_or(reopen, |w| w.min(reopen)));
             }
@@ -328,7 +326,7 @@ impl<T: Transport, K: Clock, const MTU: usize> Io<T, K, MTU> {
                     Err(e) => self.failed(core, e)?,
                 }
             }
-            if until_deadline == Some(0) || deadline.is_some_and(|d| self.clock.now_nanos() >= d) {
+            if deadline.is_some_and(|d| d <= now || self.clock.now_nanos() >= d) {
                 return Ok(false);
             }
         }

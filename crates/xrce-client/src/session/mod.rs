@@ -23,8 +23,7 @@ use crate::error::{Error, Result};
 use crate::stream::input_reliable_ready as ready;
 use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
 use outputs::FIRST_REQUEST_ID;
-use xrce_proto::cdr::{Encode, Writer};
-use xrce_proto::message::{encode_single_kind, Submessages};
+use xrce_proto::message::{encode_single_bytes, encode_single_kind, Submessages};
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{id, info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat};
 use xrce_proto::{
@@ -252,6 +251,8 @@ struct Retry {
 
 impl Retry {
     /// Whether to send now; `None` when attempts are exhausted and the last wait is over.
+    // Always inlined at its two callers (firmware size).
+    #[inline(always)]
     fn due(&mut self, now: i64) -> Option<bool> {
         if now < self.next {
             return Some(false);
@@ -417,13 +418,6 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         Ok(StreamId::from_index(index, StreamKind::Reliable))
     }
 
-    fn reset_streams(&mut self) {
-        self.st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
-        self.st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
-        self.st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
-        self.in_rel.iter_mut().flatten().for_each(InputReliable::reset);
-    }
-
     /// The output side, to write entity requests and data (also reachable through [`crate::WriteAccess`]).
     pub fn outputs(&mut self) -> Outputs<'_, 'a> {
         self.st.outputs()
@@ -489,7 +483,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             // created the session); the next creation gets a fresh one.
             *nonce = nonce.wrapping_add(1);
         }
-        self.reset_streams();
+        reset_streams(&mut self.st, &mut self.in_rel, true);
         self.st.live.set_recreating(false);
         fail_pending_ping(&mut self.st);
         self.st.state = SessionState::Creating;
@@ -735,6 +729,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     #[inline(never)]
     pub fn poll_transmit(&mut self, now: i64, out: &mut [u8]) -> Option<usize> {
         let st = &mut self.st;
+        // Built once for every message this sends outside a stream (firmware size).
+        let header = st.header(StreamId::NONE);
         if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {
             recreate(st, now);
         }
@@ -742,14 +738,16 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if let Some(retry) = st.session_retry.as_mut() {
             match (st.state, retry.due(now)) {
                 (SessionState::Creating, Some(true)) => {
-                    let header = MessageHeader::new(session_none_for(st.session_id), StreamId::NONE, 0, st.key);
+                    // Out of session: another id, with the key exactly when the session's carries it.
+                    let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
                     let mtu = ClientRepresentation::mtu_for(st.mtu);
                     let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
                     #[cfg(feature = "psk")]
                     let token =
                         st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
                     let none = xrce_proto::Property { name: "", value: "" };
-                    let mut props = [none; 3];
+                    // Room for the properties this build can send (firmware size: one without reconnection or PSK).
+                    let mut props = [none; 1 + RECONNECT as usize + cfg!(feature = "psk") as usize];
                     let mut n = 0;
                     if st.packed_input {
                         add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
@@ -771,8 +769,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 }
                 (SessionState::Deleting, Some(true)) => {
                     let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
-                    let header = st.header(StreamId::NONE);
-                    return encode_single_kind(out, &header, id::DELETE, |w| req.encode(w)).ok();
+                    return encode_single_bytes(out, &header, id::DELETE, &req.to_bytes()).ok();
                 }
                 (SessionState::Creating, None) if st.live.recreating() => {
                     // The agent went again before answering: back to the attempts.
@@ -801,9 +798,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if st.state != SessionState::Established {
             return None;
         }
-        let header = st.header(StreamId::NONE);
         if st.live.probe_due(now) {
-            return encode_single_kind(out, &header, id::GET_INFO, |w| liveness_probe().encode(w)).ok();
+            return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
         }
         if let Some(request) = st.info_reply.take() {
             let reply = BaseObjectReply {
@@ -811,19 +807,15 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
             };
             // An INFO with neither configuration nor activity: the reply and two absent optionals.
-            let info = |w: &mut Writer<'_>| {
-                reply.encode(w);
-                w.write_bool(false);
-                w.write_bool(false);
-            };
-            return encode_single_kind(out, &header, id::INFO, info).ok();
+            let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
+            return encode_single_bytes(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]).ok();
         }
         if let Some(retry) = st.ping_retry.as_mut() {
             match retry.due(now) {
                 Some(true) => {
                     let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
                     let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
-                    return encode_single_kind(out, &header, id::GET_INFO, |w| get.encode(w)).ok();
+                    return encode_single_bytes(out, &header, id::GET_INFO, &get.to_le_bytes()).ok();
                 }
                 Some(false) => {}
                 None => {
@@ -834,13 +826,13 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         }
         if st.sync_pending {
             st.sync_pending = false;
-            return encode_single_kind(out, &header, id::TIMESTAMP, |w| Time::from_nanos(now).encode(w)).ok();
+            return encode_single_bytes(out, &header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes()).ok();
         }
         for (i, s) in self.in_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
             let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
             let ack = AckNack::from_bits(s.acknack(), stream_id);
-            return encode_single_kind(out, &header, id::ACKNACK, |w| ack.encode(w)).ok();
+            return encode_single_bytes(out, &header, id::ACKNACK, &ack.to_le_bytes()).ok();
         }
         for (i, s) in st.out_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut() else { continue };
@@ -850,7 +842,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             }
             if let Some((first, last)) = s.poll_heartbeat(now) {
                 let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
-                return encode_single_kind(out, &header, id::HEARTBEAT, |w| hb.encode(w)).ok();
+                return encode_single_bytes(out, &header, id::HEARTBEAT, &hb.to_le_bytes()).ok();
             }
         }
         for (i, s) in st.out_be.iter_mut().enumerate() {
@@ -866,18 +858,16 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// The earliest time something will be due without new input (a retry, a heartbeat), if any.
     pub fn poll_timeout(&self) -> Option<i64> {
         let st = &self.st;
-        // A plain fold: the iterator chain it replaces cost a microcontroller ~200 bytes of code.
+        // A plain fold, each candidate folded by one closure (firmware size: iterator chains cost ~200 bytes).
         let mut next = i64::MAX;
-        for retry in [&st.session_retry, &st.ping_retry].into_iter().flatten() {
-            next = next.min(retry.next);
-        }
+        let mut earlier = |t: Option<i64>| next = next.min(t.unwrap_or(i64::MAX));
+        earlier(st.session_retry.map(|r| r.next));
+        earlier(st.ping_retry.map(|r| r.next));
         let established = st.state == SessionState::Established;
-        if let Some(t) = st.live.timeout(established, st.state == SessionState::Reconnecting) {
-            next = next.min(t);
-        }
+        earlier(st.live.timeout(established, st.state == SessionState::Reconnecting));
         // Streams only send in an established session; their timers wait meanwhile.
-        for stream in st.out_rel.iter().flatten().filter(|_| established) {
-            next = next.min(stream.timeout().unwrap_or(i64::MAX));
+        if established {
+            st.out_rel.iter().flatten().for_each(|stream| earlier(stream.timeout()));
         }
         (next != i64::MAX).then_some(next)
     }
@@ -891,6 +881,21 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             || st.out_rel.iter().flatten().any(OutputReliable::has_pending)
             || st.out_be.iter().flatten().any(|s| !s.is_empty())
     }
+}
+
+/// Every stream back to its start, but the reliable output ones unless `reliable_output` (a session created).
+/// One function for the two places that do it (firmware size).
+fn reset_streams<const OBE: usize, const ORE: usize, const IBE: usize>(
+    st: &mut State<'_, OBE, ORE, IBE>,
+    in_rel: &mut [Option<InputReliable<'_>>],
+    reliable_output: bool,
+) {
+    st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
+    if reliable_output {
+        st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+    }
+    st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
+    in_rel.iter_mut().flatten().for_each(InputReliable::reset);
 }
 
 /// Puts `p` in the next free slot of `props` (CREATE_CLIENT properties).
@@ -959,7 +964,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);
-        return encode_single_kind(out, &header, id::GET_INFO, |w| liveness_probe().encode(w)).ok();
+        return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
     }
     if st.live.take_second_ping() {
         return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);
@@ -1007,16 +1012,14 @@ fn process<'a, C: Callbacks + ?Sized, const OBE: usize, const ORE: usize, const 
                 } else if result.status == StatusCode::OK {
                     st.state = SessionState::Established;
                     st.live.heard(now);
-                    st.out_be.iter_mut().flatten().for_each(OutputBestEffort::reset);
                     if RECONNECT && recreated {
                         // The agent restarted its streams; what it did not acknowledge goes again, renumbered.
                         st.out_rel.iter_mut().flatten().for_each(OutputReliable::rebase);
                         st.live.push(SessionEvent::Restored { recreated: true });
+                        reset_streams(st, in_rel, false);
                     } else {
-                        st.out_rel.iter_mut().flatten().for_each(OutputReliable::reset);
+                        reset_streams(st, in_rel, true);
                     }
-                    st.in_be.iter_mut().flatten().for_each(InputBestEffort::reset);
-                    in_rel.iter_mut().flatten().for_each(InputReliable::reset);
                 } else if RECONNECT && recreated {
                     // Refused for now (the agent is full, say): keep trying.
                     st.state = SessionState::Reconnecting;

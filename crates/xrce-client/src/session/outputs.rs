@@ -90,10 +90,17 @@ impl<'s, 'a> Outputs<'s, 'a> {
         }
     }
 
+    // The lookup returns an `Option` (in a register, where a `Result` goes through memory), the error is made
+    // at each caller (firmware size).
+    #[inline(always)]
     fn reliable_mut(&mut self, stream: StreamId) -> Result<&mut OutputReliable<'a>> {
+        self.reliable_opt(stream).ok_or(Error::UnknownStream)
+    }
+
+    fn reliable_opt(&mut self, stream: StreamId) -> Option<&mut OutputReliable<'a>> {
         match self.reliable.get_mut(usize::from(stream.index())) {
-            Some(Some(s)) if stream.kind() == StreamKind::Reliable => Ok(s),
-            _ => Err(Error::UnknownStream),
+            Some(Some(s)) if stream.kind() == StreamKind::Reliable => Some(s),
+            _ => None,
         }
     }
 

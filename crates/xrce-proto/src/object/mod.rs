@@ -200,11 +200,12 @@ impl ClientRepresentation<'_> {
     }
 
     fn encode_with(&self, w: &mut Writer<'_>, properties: impl FnOnce(&mut Writer<'_>)) {
-        w.write_bytes(&self.xrce_cookie);
-        w.write_bytes(&self.xrce_version);
-        w.write_bytes(&self.xrce_vendor_id);
-        self.client_key.encode(w);
-        w.write_u8(self.session_id);
+        // The fixed fields (no alignment among them) in one write (firmware size).
+        let [c0, c1, c2, c3] = self.xrce_cookie;
+        let [v0, v1] = self.xrce_version;
+        let [d0, d1] = self.xrce_vendor_id;
+        let [k0, k1, k2, k3] = self.client_key.0;
+        w.write_bytes(&[c0, c1, c2, c3, v0, v1, d0, d1, k0, k1, k2, k3, self.session_id]);
         properties(w);
         w.write_u16(self.mtu);
     }

@@ -8,7 +8,7 @@
 
 use super::{flag, id, AckNack, DataPayload, GetInfo, Heartbeat, Submessage, SubmessageHeader, TimestampReply};
 use crate::cdr::{Error, Reader, Result};
-use crate::types::{BaseObjectReply, ObjectKind, ResultStatus};
+use crate::types::{BaseObjectReply, ResultStatus};
 
 /// A submessage from an agent as a client sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,23 +80,25 @@ const ACTIVITY_AGENT: u8 = 0x0D;
 /// Steps over an INFO's configuration: the agent's or a client's representation, the only ones an agent
 /// reports to a client; any other kind is [`Error::InvalidDiscriminator`], as the whole decoder says.
 fn skip_configuration(r: &mut Reader<'_>) -> Result<()> {
-    let kind_byte = r.read_u8()?;
-    let kind = if kind_byte > 0x0F { None } else { Some(ObjectKind::from_nibble(kind_byte)) };
-    match kind {
-        // Cookie, version, vendor id; then the optional properties.
-        Some(ObjectKind::Agent) => {
-            r.skip(8)?;
-            skip_properties(r)
-        }
-        // Cookie, version, vendor id, client key, session id; properties; the MTU.
-        Some(ObjectKind::Client) => {
-            r.skip(13)?;
-            skip_properties(r)?;
-            r.read_u16().map(drop)
-        }
-        _ => Err(Error::InvalidDiscriminator(kind_byte)),
+    // One path for both kinds (firmware size). The agent's: cookie, version, vendor id; then the optional
+    // properties. A client's: cookie, version, vendor id, client key, session id; properties; the MTU.
+    let kind = r.read_u8()?;
+    let fixed = match kind {
+        KIND_AGENT => 8,
+        KIND_CLIENT => 13,
+        _ => return Err(Error::InvalidDiscriminator(kind)),
+    };
+    r.skip(fixed)?;
+    skip_properties(r)?;
+    if kind == KIND_CLIENT {
+        r.read_u16()?;
     }
+    Ok(())
 }
+
+/// The object kinds of the agent's and a client's representations ([`ObjectKind`](crate::types::ObjectKind)).
+const KIND_AGENT: u8 = 0x0D;
+const KIND_CLIENT: u8 = 0x0E;
 
 /// Steps over an optional sequence of (name, value) string pairs.
 fn skip_properties(r: &mut Reader<'_>) -> Result<()> {
@@ -110,4 +112,43 @@ fn skip_properties(r: &mut Reader<'_>) -> Result<()> {
         r.skip(usize::try_from(len).map_err(|_| Error::Truncated)?)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cdr::Error;
+
+    /// What an INFO with a configuration of kind `kind` followed by `rest` decodes to: its availability.
+    fn info_with_configuration(kind: u8, rest: &[u8]) -> Result<Option<i16>> {
+        let mut msg = [0u8; 64];
+        let head = [0, 1, 0xFF, 0xFE, 0, 1, 1, kind];
+        msg[8..16].copy_from_slice(&head);
+        msg[16..16 + rest.len()].copy_from_slice(rest);
+        let len = head.len() + rest.len();
+        let header = SubmessageHeader { id: id::INFO, flags: 1, length: len as u16 };
+        match FromAgent::decode(header, &msg, 8, 8 + len)? {
+            FromAgent::Info { availability, .. } => Ok(availability),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn configurations_of_other_kinds_are_refused() {
+        for kind in [0x00, 0x01, 0x0C, 0x0F, 0x10, 0x1D, 0xFE] {
+            assert_eq!(info_with_configuration(kind, &[0; 24]), Err(Error::InvalidDiscriminator(kind)), "{kind:#x}");
+        }
+    }
+
+    #[test]
+    fn configurations_are_stepped_over() {
+        // The agent's: 8 fixed bytes, no properties; then an agent activity, availability 1.
+        let agent = [0u8, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0x0D, 0, 1, 0];
+        assert_eq!(info_with_configuration(0x0D, &agent), Ok(Some(1)));
+        // A client's: 13 fixed bytes, no properties, the MTU (2-aligned already); then no activity.
+        let client = [0u8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0];
+        assert_eq!(info_with_configuration(0x0E, &client), Ok(None));
+        assert_eq!(info_with_configuration(0x0E, &client[..14]), Err(Error::Truncated));
+        assert_eq!(info_with_configuration(0x0D, &[0; 8]), Err(Error::Truncated));
+    }
 }

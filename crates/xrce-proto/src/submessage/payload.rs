@@ -83,6 +83,15 @@ pub struct GetInfo {
 }
 codec_struct!(GetInfo { request: BaseObjectRequest, info_mask: u32 });
 
+impl GetInfo {
+    /// Its little-endian CDR bytes at a 4-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 8] {
+        let [r0, r1, o0, o1] = self.request.to_bytes();
+        let [m0, m1, m2, m3] = self.info_mask.to_le_bytes();
+        [r0, r1, o0, o1, m0, m1, m2, m3]
+    }
+}
+
 /// Activity part of an INFO.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ActivityInfo<'a> {
@@ -205,16 +214,15 @@ pub struct DataPayload<'a> {
 impl<'a> DataPayload<'a> {
     /// Splits a leading [`SampleIdentity`] off the data (replier traffic).
     pub fn split_sample_identity(&self) -> Result<(SampleIdentity, &'a [u8])> {
-        let mut r = Reader::new(self.data, crate::cdr::Endianness::Little);
-        let identity = SampleIdentity::decode(&mut r)?;
-        Ok((identity, r.rest()))
+        // A fixed layout read under one bounds check (firmware size).
+        let (identity, rest) = self.data.split_first_chunk().ok_or(Error::Truncated)?;
+        Ok((SampleIdentity::from_le_bytes(identity), rest))
     }
 
     /// Splits a leading [`BaseObjectRequest`] off the data (requester reply DATA).
     pub fn split_base_request(&self) -> Result<(BaseObjectRequest, &'a [u8])> {
-        let mut r = Reader::new(self.data, crate::cdr::Endianness::Little);
-        let base = BaseObjectRequest::decode(&mut r)?;
-        Ok((base, r.rest()))
+        let (base, rest) = self.data.split_first_chunk().ok_or(Error::Truncated)?;
+        Ok((BaseObjectRequest::from_bytes(*base), rest))
     }
 }
 
@@ -327,6 +335,13 @@ impl Encode for AckNack {
 }
 
 impl AckNack {
+    /// Its little-endian CDR bytes at a 2-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 5] {
+        let [f0, f1] = self.first_unacked_seq_num.to_le_bytes();
+        let [b0, b1] = self.nack_bitmap;
+        [f0, f1, b0, b1, self.stream_id]
+    }
+
     /// The bitmap as a u16 whose bit i ↔ `first_unacked + i`.
     pub const fn bitmap(&self) -> u16 {
         u16::from_be_bytes(self.nack_bitmap)
@@ -376,6 +391,15 @@ impl Encode for Heartbeat {
     }
 }
 
+impl Heartbeat {
+    /// Its little-endian CDR bytes at a 2-aligned position.
+    pub const fn to_le_bytes(&self) -> [u8; 5] {
+        let [f0, f1] = self.first_unacked_seq_nr.to_le_bytes();
+        let [l0, l1] = self.last_unacked_seq_nr.to_le_bytes();
+        [f0, f1, l0, l1, self.stream_id]
+    }
+}
+
 /// TIMESTAMP_REPLY (24 bytes, in this order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub struct TimestampReply {
@@ -386,7 +410,31 @@ pub struct TimestampReply {
     /// The client's transmit timestamp, echoed.
     pub originate_timestamp: Time,
 }
-codec_struct!(TimestampReply { transmit_timestamp: Time, receive_timestamp: Time, originate_timestamp: Time });
+// Only truncation can fail: read as an `Option` (firmware size, see `Reader::read_array_opt`).
+impl<'a> Decode<'a> for TimestampReply {
+    #[inline(always)]
+    fn decode(r: &mut Reader<'a>) -> Result<Self> {
+        Self::read_opt(r).ok_or(Error::Truncated)
+    }
+}
+
+impl TimestampReply {
+    fn read_opt(r: &mut Reader<'_>) -> Option<Self> {
+        Some(Self {
+            transmit_timestamp: Time::read_opt(r)?,
+            receive_timestamp: Time::read_opt(r)?,
+            originate_timestamp: Time::read_opt(r)?,
+        })
+    }
+}
+
+impl Encode for TimestampReply {
+    fn encode(&self, w: &mut Writer<'_>) {
+        self.transmit_timestamp.encode(w);
+        self.receive_timestamp.encode(w);
+        self.originate_timestamp.encode(w);
+    }
+}
 
 #[cfg(test)]
 mod acknack_tests {
@@ -400,5 +448,96 @@ mod acknack_tests {
         assert_eq!(ack, AckNack { first_unacked_seq_num: 0x0102, nack_bitmap: [0x80, 0x05], stream_id: 0x80 });
         assert_eq!(ack.bits(), bits);
         assert_eq!(ack.bitmap(), bits.bitmap);
+    }
+}
+
+#[cfg(test)]
+mod le_bytes_tests {
+    use super::{AckNack, GetInfo, Heartbeat};
+    use crate::cdr::{Encode, Endianness, Writer};
+    use crate::types::{BaseObjectReply, BaseObjectRequest, ObjectId, RequestId, ResultStatus, StatusCode, Time};
+
+    /// What the CDR writer makes of `v`, little endian from a 4-aligned position.
+    fn cdr<T: Encode>(v: &T) -> ([u8; 16], usize) {
+        let mut buf = [0u8; 16];
+        let mut w = Writer::new(&mut buf, Endianness::Little);
+        v.encode(&mut w);
+        let n = w.finish().unwrap();
+        (buf, n)
+    }
+
+    fn same<T: Encode>(v: &T, bytes: &[u8]) {
+        let (buf, n) = cdr(v);
+        assert_eq!(&buf[..n], bytes);
+    }
+
+    #[test]
+    fn times_read_as_fields_would() {
+        use super::TimestampReply;
+        use crate::cdr::{Decode, Error, Reader};
+        let bytes: [u8; 29] = core::array::from_fn(|i| (i as u8).wrapping_mul(37));
+        for endian in [Endianness::Little, Endianness::Big] {
+            for pos in 0..6 {
+                let by_fields = |r: &mut Reader<'_>| -> Result<[Time; 3], Error> {
+                    let mut t = [Time::default(); 3];
+                    for x in &mut t {
+                        *x = Time { seconds: r.read_i32()?, nanoseconds: r.read_u32()? };
+                    }
+                    Ok(t)
+                };
+                let mut a = Reader::with_origin(&bytes, pos, 0, endian);
+                let mut b = a;
+                let expected = by_fields(&mut a);
+                let got = TimestampReply::decode(&mut b)
+                    .map(|t| [t.transmit_timestamp, t.receive_timestamp, t.originate_timestamp]);
+                assert_eq!(got, expected, "{endian:?} {pos}");
+                if got.is_ok() {
+                    assert_eq!(a.position(), b.position());
+                }
+                let mut c = Reader::with_origin(&bytes[..pos + 9], pos, 0, endian);
+                let mut d = c;
+                let one = (|| Ok::<_, Error>(Time { seconds: d.read_i32()?, nanoseconds: d.read_u32()? }))();
+                assert_eq!(Time::decode(&mut c), one, "{endian:?} {pos}");
+            }
+        }
+    }
+
+    #[test]
+    fn data_splits_read_as_the_decoders_would() {
+        use super::DataPayload;
+        use crate::cdr::{Decode, Reader};
+        use crate::types::SampleIdentity;
+        let bytes: [u8; 27] = core::array::from_fn(|i| (i as u8).wrapping_mul(53).wrapping_add(7));
+        for len in [0, 3, 4, 23, 24, 27] {
+            let data = &bytes[..len];
+            let d = DataPayload { request: BaseObjectRequest::default(), format: super::DataFormat::DATA, data };
+            let mut r = Reader::new(data, Endianness::Little);
+            let expected = SampleIdentity::decode(&mut r).map(|i| (i, r.rest()));
+            assert_eq!(d.split_sample_identity(), expected);
+            let mut r = Reader::new(data, Endianness::Little);
+            let expected = BaseObjectRequest::decode(&mut r).map(|b| (b, r.rest()));
+            assert_eq!(d.split_base_request(), expected);
+            assert_eq!(expected.is_err(), len < 4);
+        }
+    }
+
+    #[test]
+    fn fixed_payloads_are_what_the_writer_makes() {
+        let request = BaseObjectRequest { request_id: RequestId(0x1234), object_id: ObjectId([0x56, 0x78]) };
+        same(&request, &request.to_bytes());
+        let get = GetInfo { request, info_mask: 0x0A0B_0C0D };
+        same(&get, &get.to_le_bytes());
+        let reply = BaseObjectReply {
+            related_request: request,
+            result: ResultStatus { status: StatusCode(0x80), implementation_status: 1 },
+        };
+        same(&reply, &reply.to_bytes());
+        for t in [Time { seconds: -2, nanoseconds: 999_999_999 }, Time { seconds: 0x0102_0304, nanoseconds: 5 }] {
+            same(&t, &t.to_le_bytes());
+        }
+        let ack = AckNack { first_unacked_seq_num: 0xFFFE, nack_bitmap: [0x80, 0x01], stream_id: 0x80 };
+        same(&ack, &ack.to_le_bytes());
+        let hb = Heartbeat { first_unacked_seq_nr: 0x0102, last_unacked_seq_nr: 0xFF00, stream_id: 0x81 };
+        same(&hb, &hb.to_le_bytes());
     }
 }
