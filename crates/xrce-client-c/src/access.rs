@@ -47,6 +47,11 @@ pub unsafe extern "C" fn uxr_buffer_cancel_data(
     }
 }
 
+/// What the closure of `uxr_prepare_output_stream` returns when the bytes are not reserved.
+const FAILED: u32 = 0x1_0000;
+/// As [`FAILED`], for a sample larger than one message.
+const TOO_LARGE: u32 = 0x2_0000;
+
 /// `uxr_prepare_output_stream`: reserves `data_size` bytes in the stream and points `ub` at them (zeroed; all
 /// are sent whatever is written). On a reliable stream, a sample larger than one message is spread over the
 /// stream's slots as fragments, as eProsima's library does: `ub` then fills a window at a time (its on-full
@@ -75,35 +80,38 @@ pub unsafe extern "C" fn uxr_prepare_output_stream(
     unsafe {
         crate::lock::hold_stream(session, stream_id);
     }
-    // SAFETY: contract.
-    let prepared = unsafe {
-        with_outputs(session, Err(xrce_client::Error::Busy), |o| {
-            o.prepare_output_stream(stream_id.rust(), entity_id.rust(), size).map(|mut p| {
-                let request = p.request_id;
-                let buf = p.buffer();
-                (request, buf.as_mut_ptr(), buf.len())
-            })
-        })
-    };
-    let (request, data, len) = match prepared {
-        Ok(p) => p,
-        Err(xrce_client::Error::TooLarge) if stream_id.type_ == RELIABLE_STREAM => {
-            // SAFETY: contract.
-            let request = unsafe { crate::session::prepare_whole(session, stream_id, entity_id, ub, size) };
-            // The fragmented write took its own hold on the stream.
-            #[cfg(uxr_multithread)]
-            // SAFETY: taken above by this thread.
-            unsafe {
-                crate::lock::release_stream(session, stream_id);
-            }
-            return request;
-        }
-        Err(_) => (0, core::ptr::null_mut(), 0),
-    };
-    // SAFETY: `ub` non-null and writable (contract). The slot lies in the stream memory the program lent to the
+    // The closure points `ub` at the slot itself and returns the request id, or one of two codes above any id:
+    // a `u32` in a register, not a `Result` of three words through memory (firmware size).
+    // SAFETY: contract. `ub` non-null and writable. The slot lies in the stream memory the program lent to the
     // session; the session does not touch it again before the program's next call on it, by which time the
     // program has serialized into it.
-    unsafe { ub.write(ucdrBuffer::over(data, len, 0, 0, LITTLE)) };
+    let prepared = unsafe {
+        with_outputs(session, FAILED, |o| match o.prepare_output_stream(stream_id.rust(), entity_id.rust(), size) {
+            Ok(mut p) => {
+                let buf = p.buffer();
+                ub.write(ucdrBuffer::over(buf.as_mut_ptr(), buf.len(), 0, 0, LITTLE));
+                u32::from(p.request_id)
+            }
+            Err(xrce_client::Error::TooLarge) => TOO_LARGE,
+            Err(_) => FAILED,
+        })
+    };
+    if prepared == TOO_LARGE && stream_id.type_ == RELIABLE_STREAM {
+        // SAFETY: contract.
+        let request = unsafe { crate::session::prepare_whole(session, stream_id, entity_id, ub, size) };
+        // The fragmented write took its own hold on the stream.
+        #[cfg(uxr_multithread)]
+        // SAFETY: taken above by this thread.
+        unsafe {
+            crate::lock::release_stream(session, stream_id);
+        }
+        return request;
+    }
+    let request = u16::try_from(prepared).unwrap_or(0);
+    if prepared > u32::from(u16::MAX) {
+        // SAFETY: `ub` non-null and writable (contract): an empty buffer, its writes fail.
+        unsafe { ub.write(ucdrBuffer::over(core::ptr::null_mut(), 0, 0, 0, LITTLE)) };
+    }
     #[cfg(uxr_multithread)]
     if request == 0 {
         // SAFETY: taken above by this thread.
