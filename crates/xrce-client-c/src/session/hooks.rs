@@ -2,6 +2,7 @@
 
 use core::cell::Cell;
 use core::ffi::c_void;
+use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use xrce_client::{Callbacks, ObjectId, Outputs, StreamId, TimeSample};
@@ -71,10 +72,11 @@ impl Hooks {
 }
 
 /// A read-only CDR buffer over a received payload (little endian, as XRCE payloads travel).
+/// Written into the caller's buffer, not returned and copied (firmware size).
 #[inline(never)] // one copy for the three data callbacks (firmware size)
-fn reader(data: &[u8]) -> (ucdrBuffer, u16) {
-    let ub = ucdrBuffer::over(data.as_ptr().cast_mut(), data.len(), 0, 0, LITTLE);
-    (ub, u16::try_from(data.len()).unwrap_or(u16::MAX))
+fn reader(data: &[u8], ub: &mut MaybeUninit<ucdrBuffer>) -> u16 {
+    ub.write(ucdrBuffer::over(data.as_ptr().cast_mut(), data.len(), 0, 0, LITTLE));
+    u16::try_from(data.len()).unwrap_or(u16::MAX)
 }
 
 impl Callbacks for Hooks {
@@ -99,10 +101,12 @@ impl Callbacks for Hooks {
         let (Some(f), args) = (self.get(|s| field!(s, on_topic)), self.get(|s| field!(s, on_topic_args))) else {
             return;
         };
-        let (mut ub, len) = reader(data);
+        let mut ub = MaybeUninit::uninit();
+        let len = reader(data, &mut ub);
         let (object, stream) = (uxrObjectId::from_rust(object_id), uxrStreamId::from_rust(stream_id, INPUT_STREAM));
-        // SAFETY: as in `on_status`; `ub` covers the payload, alive for the call, and is only read through.
-        self.lending(out, |s| unsafe { f(s, object, request_id, stream, &mut ub, len, args) });
+        // SAFETY: as in `on_status`; `ub`, written by `reader`, covers the payload, alive for the call, and is only
+        // read through.
+        self.lending(out, |s| unsafe { f(s, object, request_id, stream, ub.as_mut_ptr(), len, args) });
     }
 
     fn on_request(
@@ -120,10 +124,11 @@ impl Callbacks for Hooks {
         let (Some(f), args) = (self.get(|s| field!(s, on_request)), self.get(|s| field!(s, on_request_args))) else {
             return;
         };
-        let (mut ub, len) = reader(data);
+        let mut ub = MaybeUninit::uninit();
+        let len = reader(data, &mut ub);
         let object = uxrObjectId::from_rust(object_id);
         // SAFETY: as in `on_topic`; `sample` lives for the call.
-        self.lending(out, |s| unsafe { f(s, object, request_id, &mut sample, &mut ub, len, args) });
+        self.lending(out, |s| unsafe { f(s, object, request_id, &mut sample, ub.as_mut_ptr(), len, args) });
     }
 
     fn on_reply(
@@ -138,10 +143,11 @@ impl Callbacks for Hooks {
         let (Some(f), args) = (self.get(|s| field!(s, on_reply)), self.get(|s| field!(s, on_reply_args))) else {
             return;
         };
-        let (mut ub, len) = reader(data);
+        let mut ub = MaybeUninit::uninit();
+        let len = reader(data, &mut ub);
         let object = uxrObjectId::from_rust(object_id);
         // SAFETY: as in `on_topic`.
-        self.lending(out, |s| unsafe { f(s, object, request_id, reply_id, &mut ub, len, args) });
+        self.lending(out, |s| unsafe { f(s, object, request_id, reply_id, ub.as_mut_ptr(), len, args) });
     }
 
     fn on_time(&mut self, t: &TimeSample) -> bool {
