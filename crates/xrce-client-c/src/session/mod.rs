@@ -21,7 +21,7 @@ mod run;
 mod streams;
 
 use core::cell::Cell;
-use core::mem::{align_of, size_of};
+use core::mem::{align_of, size_of, MaybeUninit};
 use core::ptr::{addr_of, addr_of_mut};
 
 use xrce_client::{Outputs, Session, SessionState, WriteAccess};
@@ -187,9 +187,11 @@ pub unsafe fn with_outputs<R>(
 ) -> R {
     // `f` is called at one place only and the outputs are found out of line, so each instance holds one copy
     // of `f` and little else (firmware size).
+    let mut out = MaybeUninit::uninit();
     // SAFETY: contract.
-    let Some((out, entered)) = (unsafe { outputs_of(session) }) else { return fallback };
-    let result = f(out);
+    let Some(entered) = (unsafe { outputs_of(session, &mut out) }) else { return fallback };
+    // SAFETY: `outputs_of` wrote the outputs when it returned `Some`.
+    let result = f(unsafe { out.assume_init() });
     if entered {
         // SAFETY: entered by `outputs_of`; the outputs borrowed from the session were consumed by `f`.
         unsafe { leave(session) };
@@ -197,14 +199,16 @@ pub unsafe fn with_outputs<R>(
     result
 }
 
-/// The outputs [`with_outputs`] runs on, and whether the session was entered for them (then [`leave`] follows);
-/// `None` when there are none. Out of line: one copy for every `with_outputs` instance (firmware size).
+/// Writes into `out` the outputs [`with_outputs`] runs on and tells whether the session was entered for them
+/// (then [`leave`] follows); `None`, `out` untouched, when there are none. Out of line: one copy for every
+/// `with_outputs` instance; the outputs written in place and an `Option<bool>` returned in a register, not a
+/// 6-word `Option` through memory then copied (firmware size).
 ///
 /// # Safety
 /// `session` is null or points to a `uxrSession`; the outputs are used only until [`leave`] or, lent ones, while
 /// the callback that lent them runs.
 #[inline(never)]
-unsafe fn outputs_of<'s>(session: *mut uxrSession) -> Option<(Outputs<'s, 'static>, bool)> {
+unsafe fn outputs_of<'s>(session: *mut uxrSession, out: &mut MaybeUninit<Outputs<'s, 'static>>) -> Option<bool> {
     // SAFETY: contract.
     let slot = unsafe { self::slot(session) }?;
     // SAFETY: an initialised slot; `in_callback` is only reached through shared references.
@@ -212,11 +216,15 @@ unsafe fn outputs_of<'s>(session: *mut uxrSession) -> Option<(Outputs<'s, 'stati
     // SAFETY: non-null only while a callback runs, during which the outputs it points to are borrowed for the
     // callback and reached by nothing else.
     match unsafe { lent.as_mut() } {
-        Some(out) => Some((out.reborrow(), false)),
+        Some(lent) => {
+            out.write(lent.reborrow());
+            Some(false)
+        }
         None => {
             // SAFETY: contract.
             let inner = unsafe { open_outputs(session) }?;
-            Some((inner.outputs(), true))
+            out.write(inner.outputs());
+            Some(true)
         }
     }
 }
