@@ -190,13 +190,14 @@ impl<IO: CustomIo, const MTU: usize> CustomTransport<IO, MTU> {
     /// result stays in registers (firmware size).
     fn write_all(&mut self, mut bytes: &[u8], whole: bool) -> Result<(), TransportError> {
         let mut zero = 0;
-        loop {
-            if !whole && bytes.is_empty() {
+        // One loop that `whole` only ends early, so the write is not duplicated for each mode (firmware size).
+        while whole || !bytes.is_empty() {
+            let n = self.io.write(bytes)?;
+            if n == bytes.len() {
                 return Ok(());
             }
-            let n = self.io.write(bytes)?;
             if whole {
-                return if n == bytes.len() { Ok(()) } else { Err(TransportError::ShortWrite) };
+                return Err(TransportError::ShortWrite);
             }
             if n == 0 {
                 zero += 1;
@@ -206,6 +207,7 @@ impl<IO: CustomIo, const MTU: usize> CustomTransport<IO, MTU> {
             }
             bytes = bytes.get(n..).unwrap_or(&[]);
         }
+        Ok(())
     }
 }
 
@@ -319,5 +321,58 @@ impl<IO: CustomIo, const MTU: usize> Transport for CustomTransport<IO, MTU> {
                 return Ok(Some(payload.len()));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Accepts at most `max` bytes per write (0: none), records calls and what was written.
+    struct Io {
+        max: usize,
+        calls: usize,
+        written: std::vec::Vec<u8>,
+    }
+
+    impl CustomIo for Io {
+        fn write(&mut self, buf: &[u8]) -> Result<usize, TransportError> {
+            self.calls += 1;
+            let n = buf.len().min(self.max);
+            self.written.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+
+        fn read(&mut self, _: &mut [u8], _: i32) -> Result<usize, TransportError> {
+            Ok(0)
+        }
+    }
+
+    fn transport(max: usize, framing: bool) -> CustomTransport<Io, 512> {
+        CustomTransport::new(Io { max, calls: 0, written: std::vec::Vec::new() }, framing).unwrap()
+    }
+
+    #[test]
+    fn packet_mode_writes_each_message_once_whole() {
+        let mut t = transport(512, false);
+        assert_eq!(t.send(&[1, 2, 3]), Ok(()));
+        assert_eq!(t.send(&[]), Ok(()));
+        assert_eq!((t.io().calls, t.io().written.as_slice()), (2, &[1, 2, 3][..]));
+        let mut short = transport(2, false);
+        assert_eq!(short.send(&[1, 2, 3]), Err(TransportError::ShortWrite));
+        assert_eq!(short.io().calls, 1);
+    }
+
+    #[test]
+    fn stream_mode_writes_in_pieces_and_gives_up_after_zero_writes() {
+        let mut t = transport(3, true);
+        assert_eq!(t.send(&[0x7E, 5]), Ok(()));
+        let mut frame = [0u8; 32];
+        let len = xrce_proto::framing::encode_frame(0, 0, &[0x7E, 5], &mut frame).unwrap();
+        assert_eq!(t.io().written, frame[..len]);
+        assert!(t.io().calls >= len / 3);
+        let mut stuck = transport(0, true);
+        assert_eq!(stuck.send(&[1]), Err(TransportError::ShortWrite));
+        assert_eq!(stuck.io().calls, MAX_ZERO_WRITES);
     }
 }
