@@ -16,7 +16,7 @@ use core::ptr::{addr_of, addr_of_mut};
 use xrce_client::{StreamId, WriteAccess};
 
 use super::public::{uxrContinuousArgs, OnBuffersFull};
-use super::{set_field, slot, uxrSession, with_session};
+use super::{set_field, slot, slot_at, uxrSession, with_session};
 use crate::abi::{uxrObjectId, uxrStreamId, OUTPUT_STREAM};
 use crate::ucdr::buffer::{ucdrBuffer, LITTLE};
 
@@ -138,9 +138,10 @@ unsafe fn fragment<'f>(session: *mut uxrSession) -> Option<&'f mut Fragment> {
 /// # Safety
 /// As [`push_window`].
 unsafe fn push_window_guarded(session: *mut uxrSession, fragment: &mut Fragment) -> bool {
-    // SAFETY: contract: an initialised session.
-    let Some(slot) = (unsafe { slot(session) }) else { return false };
-    // SAFETY: an initialised slot; `pushing` is only reached through shared references.
+    // Not checked again: the caller found the fragment in this slot (firmware size).
+    let slot = slot_at(session);
+    // SAFETY: contract: an initialised session, so an initialised slot; `pushing` is only reached through
+    // shared references.
     let pushing = unsafe { &*addr_of!((*slot).pushing) };
     pushing.set(true);
     // SAFETY: contract.
