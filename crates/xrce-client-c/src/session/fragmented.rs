@@ -74,10 +74,17 @@ impl Fragment {
         Self { active: false, stream: StreamId::NONE, flush: Flush::Never, left: 0, window_len: 0, window: [0; WINDOW] }
     }
 
-    /// Opens the next window (zeroed) and points `ub` at it, its offset going on from where it was.
-    fn next_window(&mut self, ub: &mut ucdrBuffer) {
+    /// Zeroes the window and sizes it for what is left. Out of line, one copy for its two callers (firmware
+    /// size).
+    #[inline(never)]
+    fn clear_window(&mut self) {
         self.window = [0; WINDOW];
         self.window_len = self.left.min(WINDOW);
+    }
+
+    /// Opens the next window (zeroed) and points `ub` at it, its offset going on from where it was.
+    fn next_window(&mut self, ub: &mut ucdrBuffer) {
+        self.clear_window();
         let start = self.window.as_mut_ptr();
         ub.init = start;
         ub.iterator = start;
@@ -180,8 +187,7 @@ pub unsafe fn finish_pending(session: *mut uxrSession) {
             // SAFETY: contract.
             unsafe { end(session, fragment) };
         }
-        fragment.window = [0; WINDOW];
-        fragment.window_len = fragment.left.min(WINDOW);
+        fragment.clear_window();
     }
 }
 
