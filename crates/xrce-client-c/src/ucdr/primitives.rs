@@ -18,15 +18,13 @@ macro_rules! numeric {
             const SIZE: usize = $n;
             fn put(self, big: bool, out: &mut [u8; 8]) {
                 let b = if big { self.to_be_bytes() } else { self.to_le_bytes() };
-                if let Some(dst) = out.get_mut(..$n) {
-                    xrce_proto::bytes::copy(dst, &b);
+                // A whole array assigned: one store, not a byte loop (firmware size).
+                if let Some(dst) = out.first_chunk_mut::<$n>() {
+                    *dst = b;
                 }
             }
             fn get(big: bool, bytes: &[u8; 8]) -> Self {
-                let mut b = [0u8; $n];
-                if let Some(src) = bytes.get(..$n) {
-                    xrce_proto::bytes::copy(&mut b, src);
-                }
+                let b = bytes.first_chunk::<$n>().copied().unwrap_or([0; $n]);
                 if big { <$t>::from_be_bytes(b) } else { <$t>::from_le_bytes(b) }
             }
         }
