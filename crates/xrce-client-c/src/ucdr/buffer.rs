@@ -83,19 +83,18 @@ impl ucdrBuffer {
                 self.last_data_size = u8::try_from(n).unwrap_or(u8::MAX);
                 return Some(at);
             }
-            let Some(on_full) = self.on_full_buffer.filter(|_| !asked_for_room) else {
-                self.error = true;
-                return None;
-            };
+            let Some(on_full) = self.on_full_buffer.filter(|_| !asked_for_room) else { break };
             asked_for_room = true;
             let this: *mut Self = self;
             // SAFETY: the callback was installed by the C program for this buffer and receives it as it was
             // handed over; nothing in Rust borrows the buffer across the call but through `this`.
             if unsafe { on_full(this, self.args) } {
-                self.error = true;
-                return None;
+                break;
             }
         }
+        // One failure path for both ways out (firmware size).
+        self.error = true;
+        None
     }
 }
 
