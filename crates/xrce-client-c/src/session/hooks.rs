@@ -1,14 +1,13 @@
 //! The C callbacks of a session (`uxr_set_*_callback`), called from the Rust session's [`Callbacks`].
 
-use core::cell::Cell;
 use core::ffi::c_void;
 use core::mem::MaybeUninit;
-use core::ptr::addr_of_mut;
+use core::ptr::{addr_of, addr_of_mut};
 
 use xrce_client::{Callbacks, ObjectId, Outputs, StreamId, TimeSample};
 
 use super::public::{PONG_IN_SESSION, PONG_NO_SESSION};
-use super::{uxrSession, CallbackOutputs};
+use super::{slot_at, uxrSession, Slot};
 use crate::abi::{uxrObjectId, uxrStreamId, INPUT_STREAM};
 use crate::types::SampleIdentity;
 use crate::ucdr::buffer::{ucdrBuffer, LITTLE};
@@ -34,24 +33,24 @@ pub type OnReply =
 pub struct Hooks {
     /// The C structure, handed to every callback.
     pub session: *mut uxrSession,
-    in_callback: *const CallbackOutputs,
-    last_request: *const Cell<Option<SampleIdentity>>,
 }
 
 impl Hooks {
     /// Callbacks reading `session`'s fields.
-    pub fn new(
-        session: *mut uxrSession,
-        in_callback: *const CallbackOutputs,
-        last_request: *const Cell<Option<SampleIdentity>>,
-    ) -> Self {
-        Self { session, in_callback, last_request }
+    pub fn new(session: *mut uxrSession) -> Self {
+        Self { session }
+    }
+
+    /// The session's slot: its address computed from `session`, not kept beside it (firmware size).
+    fn slot(&self) -> *mut Slot {
+        slot_at(self.session)
     }
 
     /// Calls `call` with `out` lent to any `uxr_buffer_*` the C callback makes on this session.
     fn lending(&mut self, out: &mut Outputs<'_, '_>, call: impl FnOnce(*mut uxrSession)) {
-        // SAFETY: `in_callback` points into the session's own storage, alive while the session is.
-        let cell = unsafe { &*self.in_callback };
+        // SAFETY: the callbacks run inside the initialised session's own slot; `in_callback` is only reached
+        // through shared references.
+        let cell = unsafe { &*addr_of!((*self.slot()).in_callback) };
         let previous = cell.replace(core::ptr::from_mut(out).cast());
         call(self.session);
         cell.set(previous);
@@ -118,8 +117,8 @@ impl Callbacks for Hooks {
         data: &[u8],
     ) {
         let mut sample = SampleIdentity::from_rust(sample_id);
-        // SAFETY: `last_request` points into the session's own storage, alive while the session is.
-        unsafe { &*self.last_request }.set(Some(sample));
+        // SAFETY: as in `lending`.
+        unsafe { &*addr_of!((*self.slot()).last_request) }.set(Some(sample));
         self.set(|s| field!(s, on_data_flag), true);
         let (Some(f), args) = (self.get(|s| field!(s, on_request)), self.get(|s| field!(s, on_request_args))) else {
             return;

@@ -281,9 +281,7 @@ pub unsafe extern "C" fn uxr_init_session(session: *mut uxrSession, comm: *mut u
         unsafe { core::ptr::drop_in_place(old) };
     }
     let slot = slot_at(session);
-    // SAFETY: only the fields' addresses are taken, inside the storage.
-    let (in_callback, last_request) = unsafe { (addr_of!((*slot).in_callback), addr_of!((*slot).last_request)) };
-    let hooks = Hooks::new(session, in_callback, last_request);
+    let hooks = Hooks::new(session);
     let inner = Session::<Comm, SysClock, (), OBE, ORE, IBE, IRE, MTU>::with_clock(Comm(comm), clock(), key)
         .with_reconnect(None)
         .with_callbacks(hooks);
