@@ -198,20 +198,24 @@ unsafe fn until_status(
 ) -> bool {
     // SAFETY: contract.
     let Some((requests, statuses)) = (unsafe { lists(request_list, status_list, list_size) }) else { return false };
+    // Null checked once here, not at each field (firmware size); a null session would fail below anyway.
+    if session.is_null() {
+        return false;
+    }
     // The lists are visible in the session while the call runs, as in eProsima's library.
-    // SAFETY: contract; named fields.
+    // SAFETY: contract, non-null: a session; named fields.
     unsafe {
-        set_field(session, |s| field!(s, request_list), request_list);
-        set_field(session, |s| field!(s, status_list), status_list);
-        set_field(session, |s| field!(s, request_status_list_size), list_size);
+        field!(session, request_list).write(request_list);
+        field!(session, status_list).write(status_list);
+        field!(session, request_status_list_size).write(list_size);
     }
     // SAFETY: contract.
     let done = unsafe { sending(session, false, |s| wait(s, timeout_ms, requests, statuses).unwrap_or(false)) };
-    // SAFETY: contract; named fields.
+    // SAFETY: as above.
     unsafe {
-        set_field(session, |s| field!(s, request_list), core::ptr::null());
-        set_field(session, |s| field!(s, status_list), core::ptr::null_mut());
-        set_field(session, |s| field!(s, request_status_list_size), 0);
+        field!(session, request_list).write(core::ptr::null());
+        field!(session, status_list).write(core::ptr::null_mut());
+        field!(session, request_status_list_size).write(0);
     }
     done
 }
