@@ -4,7 +4,7 @@
 use super::{copy_parts, parts_total, seq, SUBHEADER};
 use crate::error::{Error, Result};
 use xrce_proto::layout::submessage_offset;
-use xrce_proto::{ClientKey, MessageHeader, StreamId};
+use xrce_proto::{ClientKey, StreamId};
 
 /// A best-effort output stream over a caller's buffer.
 #[derive(Debug)]
@@ -92,13 +92,8 @@ impl<'a> OutputBestEffort<'a> {
             return None;
         }
         let len = submessage_offset(self.len);
-        let dst = out.get_mut(..len)?;
         let seq_nr = self.last_sent.wrapping_add(1);
-        let header = MessageHeader::new(session_id, stream, seq_nr, key);
-        let hs = header.encode(dst).ok()?;
-        let body = self.buf.get(hs..self.len)?;
-        xrce_proto::bytes::copy(dst.get_mut(hs..self.len)?, body);
-        dst.get_mut(self.len..len)?.fill(0);
+        super::emit(out, session_id, key, stream, seq_nr, self.buf, self.len, len)?;
         self.last_sent = seq_nr;
         self.len = 0;
         self.flush = false;
