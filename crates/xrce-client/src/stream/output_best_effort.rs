@@ -59,14 +59,13 @@ impl<'a> OutputBestEffort<'a> {
         if end > self.capacity {
             return Err(Error::WouldBlock);
         }
-        let from = if self.len == 0 { 0 } else { self.len };
-        if let Some(pad) = self.buf.get_mut(from..start) {
-            pad.fill(0);
+        // The padding after the content (the header's room when empty) and the region zeroed in one go (firmware
+        // size); both fit: `end <= capacity <= buf.len()`.
+        if let Some(zeroed) = self.buf.get_mut(self.len..end) {
+            zeroed.fill(0);
         }
         self.len = end;
-        let region = self.buf.get_mut(start..end).ok_or(Error::TooLarge)?;
-        region.fill(0);
-        Ok(region)
+        self.buf.get_mut(start..end).ok_or(Error::TooLarge)
     }
 
     /// Appends a submessage made of `parts` (its 4-byte header first).
