@@ -78,7 +78,6 @@ pub(crate) fn copy_parts(dst: &mut [u8], parts: &[&[u8]]) {
 /// Writes a stored message to `out`: the header of message `seq_nr`, the stored bytes `body[hs..len]` after
 /// the header's room, then zeros up to `padded`; returns `padded`. Shared by the output streams, whose
 /// `poll_transmit`s are inlined into the session's (firmware size).
-#[inline(never)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn emit(
     out: &mut [u8],
