@@ -271,7 +271,8 @@ impl Retry {
 struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     session_id: u8,
     key: ClientKey,
-    mtu: usize,
+    /// Kept in 32 bits, room for the ping and sync hook on a 64-bit host (no MTU is larger).
+    mtu: u32,
     state: SessionState,
     session_retry: Option<Retry>,
     last_request_id: u16,
@@ -282,6 +283,9 @@ struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     ping_retry: Option<Retry>,
     sync_pending: bool,
     synced: bool,
+    /// The ping and sync part of [`SessionCore::poll_transmit`], set by the calls that start them: reached
+    /// only through them, it is left out of a program that never pings nor syncs (firmware size).
+    timers: Option<PollTimers<'a, OBE, ORE, IBE>>,
     time_offset: i64,
     info_reply: Option<BaseObjectRequest>,
     packed_input: bool,
@@ -324,7 +328,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             st: State {
                 session_id,
                 key: ClientKey::from_u32(key),
-                mtu,
+                mtu: u32::try_from(mtu).unwrap_or(u32::MAX),
                 state: SessionState::Idle,
                 session_retry: None,
                 last_request_id: FIRST_REQUEST_ID - 1,
@@ -335,6 +339,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 ping_retry: None,
                 sync_pending: false,
                 synced: false,
+                timers: None,
                 time_offset: 0,
                 info_reply: None,
                 packed_input: false,
@@ -358,7 +363,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// The MTU messages are built for.
     pub const fn mtu(&self) -> usize {
-        self.st.mtu
+        self.st.mtu as usize
     }
 
     /// Where the session is.
@@ -375,7 +380,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// `uxr_create_output_best_effort_stream`: messages are built in `buffer` (at most the MTU is used).
     pub fn create_output_best_effort_stream(&mut self, buffer: &'a mut [u8]) -> Result<StreamId> {
         let hs = self.header_size();
-        let mtu = self.st.mtu;
+        let mtu = self.mtu();
         let (index, slot) = free_slot(&mut self.st.out_be)?;
         *slot = Some(OutputBestEffort::new(buffer, mtu, hs));
         Ok(StreamId::from_index(index, StreamKind::BestEffort))
@@ -599,6 +604,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             return;
         }
         self.st.ping = PingState::Pending;
+        self.st.timers = Some(poll_timers);
         self.st.ping_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: timeout_ms.max(1) * MILLIS });
     }
@@ -610,6 +616,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// Starts a time synchronisation (`uxr_sync_session`): a TIMESTAMP goes out with the next transmit.
     pub fn sync(&mut self) {
+        self.st.timers = Some(poll_timers);
         self.st.sync_pending = true;
         self.st.synced = false;
     }
@@ -740,7 +747,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 (SessionState::Creating, Some(true)) => {
                     // Out of session: another id, with the key exactly when the session's carries it.
                     let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
-                    let mtu = ClientRepresentation::mtu_for(st.mtu);
+                    let mtu = ClientRepresentation::mtu_for(st.mtu as usize);
                     let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
                     #[cfg(feature = "psk")]
                     let token =
@@ -810,23 +817,8 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
             return encode_single_bytes(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]).ok();
         }
-        if let Some(retry) = st.ping_retry.as_mut() {
-            match retry.due(now) {
-                Some(true) => {
-                    let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
-                    let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
-                    return encode_single_bytes(out, &header, id::GET_INFO, &get.to_le_bytes()).ok();
-                }
-                Some(false) => {}
-                None => {
-                    st.ping_retry = None;
-                    st.ping = PingState::Failed;
-                }
-            }
-        }
-        if st.sync_pending {
-            st.sync_pending = false;
-            return encode_single_bytes(out, &header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes()).ok();
+        if let Some(n) = st.timers.and_then(|f| f(st, now, &header, out)) {
+            return Some(n);
         }
         for (i, s) in self.in_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
@@ -881,6 +873,37 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             || st.out_rel.iter().flatten().any(OutputReliable::has_pending)
             || st.out_be.iter().flatten().any(|s| !s.is_empty())
     }
+}
+
+type PollTimers<'a, const OBE: usize, const ORE: usize, const IBE: usize> =
+    fn(&mut State<'a, OBE, ORE, IBE>, i64, &MessageHeader, &mut [u8]) -> Option<usize>;
+
+/// The ping's GET_INFO and the sync's TIMESTAMP when due (see `State::timers`).
+fn poll_timers<const OBE: usize, const ORE: usize, const IBE: usize>(
+    st: &mut State<'_, OBE, ORE, IBE>,
+    now: i64,
+    header: &MessageHeader,
+    out: &mut [u8],
+) -> Option<usize> {
+    if let Some(retry) = st.ping_retry.as_mut() {
+        match retry.due(now) {
+            Some(true) => {
+                let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
+                let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
+                return encode_single_bytes(out, header, id::GET_INFO, &get.to_le_bytes()).ok();
+            }
+            Some(false) => {}
+            None => {
+                st.ping_retry = None;
+                st.ping = PingState::Failed;
+            }
+        }
+    }
+    if st.sync_pending {
+        st.sync_pending = false;
+        return encode_single_bytes(out, header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes()).ok();
+    }
+    None
 }
 
 /// Every stream back to its start, but the reliable output ones unless `reliable_output` (a session created).
