@@ -23,7 +23,7 @@ use crate::error::{Error, Result};
 use crate::stream::input_reliable_ready as ready;
 use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
 use outputs::FIRST_REQUEST_ID;
-use xrce_proto::message::{encode_single_bytes, encode_single_kind, Submessages};
+use xrce_proto::message::{encode_single_bytes_opt, encode_single_kind, Submessages};
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{id, info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat};
 use xrce_proto::{
@@ -776,7 +776,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 }
                 (SessionState::Deleting, Some(true)) => {
                     let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
-                    return encode_single_bytes(out, &header, id::DELETE, &req.to_bytes()).ok();
+                    return encode_single_bytes_opt(out, &header, id::DELETE, &req.to_bytes());
                 }
                 (SessionState::Creating, None) if st.live.recreating() => {
                     // The agent went again before answering: back to the attempts.
@@ -806,7 +806,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             return None;
         }
         if st.live.probe_due(now) {
-            return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
+            return encode_single_bytes_opt(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes());
         }
         if let Some(request) = st.info_reply.take() {
             let reply = BaseObjectReply {
@@ -815,7 +815,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             };
             // An INFO with neither configuration nor activity: the reply and two absent optionals.
             let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
-            return encode_single_bytes(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]).ok();
+            return encode_single_bytes_opt(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]);
         }
         if let Some(n) = st.timers.and_then(|f| f(st, now, &header, out)) {
             return Some(n);
@@ -824,7 +824,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
             let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
             let ack = AckNack::from_bits(s.acknack(), stream_id);
-            return encode_single_bytes(out, &header, id::ACKNACK, &ack.to_le_bytes()).ok();
+            return encode_single_bytes_opt(out, &header, id::ACKNACK, &ack.to_le_bytes());
         }
         for (i, s) in st.out_rel.iter_mut().enumerate() {
             let Some(s) = s.as_mut() else { continue };
@@ -834,7 +834,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             }
             if let Some((first, last)) = s.poll_heartbeat(now) {
                 let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
-                return encode_single_bytes(out, &header, id::HEARTBEAT, &hb.to_le_bytes()).ok();
+                return encode_single_bytes_opt(out, &header, id::HEARTBEAT, &hb.to_le_bytes());
             }
         }
         for (i, s) in st.out_be.iter_mut().enumerate() {
@@ -890,7 +890,7 @@ fn poll_timers<const OBE: usize, const ORE: usize, const IBE: usize>(
             Some(true) => {
                 let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
                 let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
-                return encode_single_bytes(out, header, id::GET_INFO, &get.to_le_bytes()).ok();
+                return encode_single_bytes_opt(out, header, id::GET_INFO, &get.to_le_bytes());
             }
             Some(false) => {}
             None => {
@@ -901,7 +901,7 @@ fn poll_timers<const OBE: usize, const ORE: usize, const IBE: usize>(
     }
     if st.sync_pending {
         st.sync_pending = false;
-        return encode_single_bytes(out, header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes()).ok();
+        return encode_single_bytes_opt(out, header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes());
     }
     None
 }
@@ -987,7 +987,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);
-        return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
+        return encode_single_bytes_opt(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes());
     }
     if st.live.take_second_ping() {
         return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);
