@@ -741,110 +741,121 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {
             recreate(st, now);
         }
-        // Session creation and deletion.
-        if let Some(retry) = st.session_retry.as_mut() {
-            match (st.state, retry.due(now)) {
-                (SessionState::Creating, Some(true)) => {
-                    // Out of session: another id, with the key exactly when the session's carries it.
-                    let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
-                    let mtu = ClientRepresentation::mtu_for(st.mtu as usize);
-                    let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
-                    #[cfg(feature = "psk")]
-                    let token =
-                        st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
-                    let none = xrce_proto::Property { name: "", value: "" };
-                    // Room for the properties this build can send (firmware size: one without reconnection or PSK).
-                    let mut props = [none; 1 + RECONNECT as usize + cfg!(feature = "psk") as usize];
-                    let mut n = 0;
-                    if st.packed_input {
-                        add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
+        // The fixed-size messages share one call to the encoder: their id, payload and its length (firmware size).
+        let (sub_id, payload, len): (u8, [u8; 8], usize) = 'fixed: {
+            // Session creation and deletion.
+            if let Some(retry) = st.session_retry.as_mut() {
+                match (st.state, retry.due(now)) {
+                    (SessionState::Creating, Some(true)) => {
+                        // Out of session: another id, with the key exactly when the session's carries it.
+                        let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
+                        let mtu = ClientRepresentation::mtu_for(st.mtu as usize);
+                        let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                        #[cfg(feature = "psk")]
+                        let token =
+                            st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
+                        let none = xrce_proto::Property { name: "", value: "" };
+                        // Room for the properties this build can send (firmware size: one without reconnection or PSK).
+                        let mut props = [none; 1 + RECONNECT as usize + cfg!(feature = "psk") as usize];
+                        let mut n = 0;
+                        if st.packed_input {
+                            add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
+                        }
+                        if RECONNECT && st.live.recreating() {
+                            add_property(
+                                &mut props,
+                                &mut n,
+                                xrce_proto::Property { name: RESUME_PROPERTY, value: "1" },
+                            );
+                        }
+                        #[cfg(feature = "psk")]
+                        if let Some(token) = &token {
+                            let auth =
+                                xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
+                            add_property(&mut props, &mut n, auth);
+                        }
+                        let props = props.get(..n).unwrap_or(&[]);
+                        return encode_single_kind(out, &header, id::CREATE_CLIENT, |w| {
+                            rep.encode_with_properties(w, props)
+                        })
+                        .ok();
                     }
-                    if RECONNECT && st.live.recreating() {
-                        add_property(&mut props, &mut n, xrce_proto::Property { name: RESUME_PROPERTY, value: "1" });
+                    (SessionState::Deleting, Some(true)) => {
+                        let req =
+                            BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
+                        let [q0, q1, q2, q3] = req.to_bytes();
+                        break 'fixed (id::DELETE, [q0, q1, q2, q3, 0, 0, 0, 0], 4);
                     }
-                    #[cfg(feature = "psk")]
-                    if let Some(token) = &token {
-                        let auth =
-                            xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
-                        add_property(&mut props, &mut n, auth);
+                    (SessionState::Creating, None) if st.live.recreating() => {
+                        // The agent went again before answering: back to the attempts.
+                        st.session_retry = None;
+                        st.state = SessionState::Reconnecting;
+                        st.live.start_attempts(now);
                     }
-                    let props = props.get(..n).unwrap_or(&[]);
-                    return encode_single_kind(out, &header, id::CREATE_CLIENT, |w| {
-                        rep.encode_with_properties(w, props)
-                    })
-                    .ok();
+                    (SessionState::Creating, None) => {
+                        st.state = SessionState::CreateTimedOut;
+                        st.session_retry = None;
+                    }
+                    (SessionState::Deleting, None) => {
+                        st.state = SessionState::Deleted;
+                        st.session_retry = None;
+                    }
+                    (SessionState::Creating | SessionState::Deleting, Some(false)) => {}
+                    _ => st.session_retry = None,
                 }
-                (SessionState::Deleting, Some(true)) => {
-                    let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
-                    return encode_single_bytes_opt(out, &header, id::DELETE, &req.to_bytes());
-                }
-                (SessionState::Creating, None) if st.live.recreating() => {
-                    // The agent went again before answering: back to the attempts.
-                    st.session_retry = None;
-                    st.state = SessionState::Reconnecting;
-                    st.live.start_attempts(now);
-                }
-                (SessionState::Creating, None) => {
-                    st.state = SessionState::CreateTimedOut;
-                    st.session_retry = None;
-                }
-                (SessionState::Deleting, None) => {
-                    st.state = SessionState::Deleted;
-                    st.session_retry = None;
-                }
-                (SessionState::Creating | SessionState::Deleting, Some(false)) => {}
-                _ => st.session_retry = None,
             }
-        }
-        if st.state == SessionState::Established && st.live.lost(now) {
-            lose(st, now);
-        }
-        if RECONNECT && st.state == SessionState::Reconnecting {
-            return poll_reconnect(st, now, out);
-        }
-        if st.state != SessionState::Established {
+            if st.state == SessionState::Established && st.live.lost(now) {
+                lose(st, now);
+            }
+            if RECONNECT && st.state == SessionState::Reconnecting {
+                return poll_reconnect(st, now, out);
+            }
+            if st.state != SessionState::Established {
+                return None;
+            }
+            if st.live.probe_due(now) {
+                break 'fixed (id::GET_INFO, liveness_probe().to_le_bytes(), 8);
+            }
+            if let Some(request) = st.info_reply.take() {
+                let reply = BaseObjectReply {
+                    related_request: request,
+                    result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
+                };
+                // An INFO with neither configuration nor activity: the reply and two absent optionals.
+                let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
+                break 'fixed (id::INFO, [r0, r1, r2, r3, r4, r5, 0, 0], 8);
+            }
+            if let Some(n) = st.timers.and_then(|f| f(st, now, &header, out)) {
+                return Some(n);
+            }
+            for (i, s) in self.in_rel.iter_mut().enumerate() {
+                let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
+                let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
+                let [a0, a1, a2, a3, a4] = AckNack::from_bits(s.acknack(), stream_id).to_le_bytes();
+                break 'fixed (id::ACKNACK, [a0, a1, a2, a3, a4, 0, 0, 0], 5);
+            }
+            for (i, s) in st.out_rel.iter_mut().enumerate() {
+                let Some(s) = s.as_mut() else { continue };
+                let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable);
+                if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, now, out) {
+                    return Some(n);
+                }
+                if let Some((first, last)) = s.poll_heartbeat(now) {
+                    let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
+                    let [h0, h1, h2, h3, h4] = hb.to_le_bytes();
+                    break 'fixed (id::HEARTBEAT, [h0, h1, h2, h3, h4, 0, 0, 0], 5);
+                }
+            }
+            for (i, s) in st.out_be.iter_mut().enumerate() {
+                let Some(s) = s.as_mut() else { continue };
+                let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
+                if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, out) {
+                    return Some(n);
+                }
+            }
             return None;
-        }
-        if st.live.probe_due(now) {
-            return encode_single_bytes_opt(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes());
-        }
-        if let Some(request) = st.info_reply.take() {
-            let reply = BaseObjectReply {
-                related_request: request,
-                result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
-            };
-            // An INFO with neither configuration nor activity: the reply and two absent optionals.
-            let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
-            return encode_single_bytes_opt(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]);
-        }
-        if let Some(n) = st.timers.and_then(|f| f(st, now, &header, out)) {
-            return Some(n);
-        }
-        for (i, s) in self.in_rel.iter_mut().enumerate() {
-            let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
-            let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
-            let ack = AckNack::from_bits(s.acknack(), stream_id);
-            return encode_single_bytes_opt(out, &header, id::ACKNACK, &ack.to_le_bytes());
-        }
-        for (i, s) in st.out_rel.iter_mut().enumerate() {
-            let Some(s) = s.as_mut() else { continue };
-            let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable);
-            if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, now, out) {
-                return Some(n);
-            }
-            if let Some((first, last)) = s.poll_heartbeat(now) {
-                let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
-                return encode_single_bytes_opt(out, &header, id::HEARTBEAT, &hb.to_le_bytes());
-            }
-        }
-        for (i, s) in st.out_be.iter_mut().enumerate() {
-            let Some(s) = s.as_mut() else { continue };
-            let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
-            if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, out) {
-                return Some(n);
-            }
-        }
-        None
+        };
+        encode_single_bytes_opt(out, &header, sub_id, payload.get(..len).unwrap_or(&payload))
     }
 
     /// The earliest time something will be due without new input (a retry, a heartbeat), if any.
