@@ -197,11 +197,20 @@ pub fn encode_single_kind(
 /// in its wire form (a payload starts 4-aligned); returns its length, or the size needed when `out` is too
 /// small. One body for every fixed-size kind, without a CDR writer (firmware size).
 pub fn encode_single_bytes(out: &mut [u8], header: &MessageHeader, id: u8, payload: &[u8]) -> Result<usize> {
-    let length = u16::try_from(payload.len()).map_err(|_| Error::TooLong(crate::cdr::LengthField::Submessage))?;
+    encode_single_bytes_opt(out, header, id, payload).ok_or_else(|| match u16::try_from(payload.len()) {
+        Ok(_) => Error::BufferTooSmall { needed: header.size() + SubmessageHeader::SIZE + payload.len() },
+        Err(_) => Error::TooLong(crate::cdr::LengthField::Submessage),
+    })
+}
+
+/// [`encode_single_bytes`] returning an `Option`: it comes back in registers where the `Result` goes through
+/// memory (firmware size).
+pub fn encode_single_bytes_opt(out: &mut [u8], header: &MessageHeader, id: u8, payload: &[u8]) -> Option<usize> {
+    let length = u16::try_from(payload.len()).ok()?;
     let start = header.size() + SubmessageHeader::SIZE;
     let end = start + payload.len();
-    let dst = out.get_mut(..end).ok_or(Error::BufferTooSmall { needed: end })?;
-    let hs = header.encode(dst)?;
+    let dst = out.get_mut(..end)?;
+    let hs = header.encode(dst).ok()?;
     let sub = SubmessageHeader { id, flags: Endianness::Little.flag(), length }.to_bytes();
     if let Some(d) = dst.get_mut(hs..) {
         crate::bytes::copy(d, &sub);
@@ -209,7 +218,7 @@ pub fn encode_single_bytes(out: &mut [u8], header: &MessageHeader, id: u8, paylo
     if let Some(d) = dst.get_mut(start..) {
         crate::bytes::copy(d, payload);
     }
-    Ok(end)
+    Some(end)
 }
 
 /// Encodes a message made of `header` and one submessage into `out`; returns its length.

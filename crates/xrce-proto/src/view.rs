@@ -243,7 +243,17 @@ impl StringCreate {
 
     /// The head; `None` when the payload does not fit a submessage length or the string a CDR length.
     pub fn head(&self) -> Option<[u8; Self::HEAD]> {
-        let body_len = self.encoded_len() - RequestHead::SIZE;
+        self.head_with_tail(&self.tail())
+    }
+
+    /// [`head`](Self::head) and [`tail`](Self::tail), the tail worked out once (firmware size).
+    pub fn parts(&self) -> Option<([u8; Self::HEAD], StringCreateTail)> {
+        let tail = self.tail();
+        Some((self.head_with_tail(&tail)?, tail))
+    }
+
+    fn head_with_tail(&self, tail: &StringCreateTail) -> Option<[u8; Self::HEAD]> {
+        let body_len = Self::HEAD + self.text_len + tail.len - RequestHead::SIZE;
         let h = RequestHead { id: SubmessageId::Create, flags: self.mode, request: self.request, body_len };
         let [h0, h1, h2, h3, h4, h5, h6, h7] = h.to_bytes()?;
         let format = if self.xml { object_format::AS_XML_STRING } else { object_format::BY_REFERENCE };

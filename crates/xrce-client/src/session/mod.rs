@@ -23,7 +23,7 @@ use crate::error::{Error, Result};
 use crate::stream::input_reliable_ready as ready;
 use crate::stream::{InputBestEffort, InputReliable, OutputBestEffort, OutputReliable, Received};
 use outputs::FIRST_REQUEST_ID;
-use xrce_proto::message::{encode_single_bytes, encode_single_kind, Submessages};
+use xrce_proto::message::{encode_single_bytes_opt, encode_single_kind, Submessages};
 use xrce_proto::object::ClientRepresentation;
 use xrce_proto::submessage::{id, info_mask, AckNack, DataFormat, FromAgent, GetInfo, Heartbeat};
 use xrce_proto::{
@@ -271,7 +271,8 @@ impl Retry {
 struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     session_id: u8,
     key: ClientKey,
-    mtu: usize,
+    /// Kept in 32 bits, room for the ping and sync hook on a 64-bit host (no MTU is larger).
+    mtu: u32,
     state: SessionState,
     session_retry: Option<Retry>,
     last_request_id: u16,
@@ -282,6 +283,9 @@ struct State<'a, const OBE: usize, const ORE: usize, const IBE: usize> {
     ping_retry: Option<Retry>,
     sync_pending: bool,
     synced: bool,
+    /// The ping and sync part of [`SessionCore::poll_transmit`], set by the calls that start them: reached
+    /// only through them, it is left out of a program that never pings nor syncs (firmware size).
+    timers: Option<PollTimers<'a, OBE, ORE, IBE>>,
     time_offset: i64,
     info_reply: Option<BaseObjectRequest>,
     packed_input: bool,
@@ -324,7 +328,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             st: State {
                 session_id,
                 key: ClientKey::from_u32(key),
-                mtu,
+                mtu: u32::try_from(mtu).unwrap_or(u32::MAX),
                 state: SessionState::Idle,
                 session_retry: None,
                 last_request_id: FIRST_REQUEST_ID - 1,
@@ -335,6 +339,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
                 ping_retry: None,
                 sync_pending: false,
                 synced: false,
+                timers: None,
                 time_offset: 0,
                 info_reply: None,
                 packed_input: false,
@@ -358,7 +363,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// The MTU messages are built for.
     pub const fn mtu(&self) -> usize {
-        self.st.mtu
+        self.st.mtu as usize
     }
 
     /// Where the session is.
@@ -375,7 +380,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
     /// `uxr_create_output_best_effort_stream`: messages are built in `buffer` (at most the MTU is used).
     pub fn create_output_best_effort_stream(&mut self, buffer: &'a mut [u8]) -> Result<StreamId> {
         let hs = self.header_size();
-        let mtu = self.st.mtu;
+        let mtu = self.mtu();
         let (index, slot) = free_slot(&mut self.st.out_be)?;
         *slot = Some(OutputBestEffort::new(buffer, mtu, hs));
         Ok(StreamId::from_index(index, StreamKind::BestEffort))
@@ -599,6 +604,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             return;
         }
         self.st.ping = PingState::Pending;
+        self.st.timers = Some(poll_timers);
         self.st.ping_retry =
             Some(Retry { attempts_left: attempts.max(1), next: now, period: timeout_ms.max(1) * MILLIS });
     }
@@ -610,6 +616,7 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
 
     /// Starts a time synchronisation (`uxr_sync_session`): a TIMESTAMP goes out with the next transmit.
     pub fn sync(&mut self) {
+        self.st.timers = Some(poll_timers);
         self.st.sync_pending = true;
         self.st.synced = false;
     }
@@ -734,125 +741,121 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
         if st.state == SessionState::Reconnecting && st.live.recreate_due(now) {
             recreate(st, now);
         }
-        // Session creation and deletion.
-        if let Some(retry) = st.session_retry.as_mut() {
-            match (st.state, retry.due(now)) {
-                (SessionState::Creating, Some(true)) => {
-                    // Out of session: another id, with the key exactly when the session's carries it.
-                    let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
-                    let mtu = ClientRepresentation::mtu_for(st.mtu);
-                    let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
-                    #[cfg(feature = "psk")]
-                    let token =
-                        st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
-                    let none = xrce_proto::Property { name: "", value: "" };
-                    // Room for the properties this build can send (firmware size: one without reconnection or PSK).
-                    let mut props = [none; 1 + RECONNECT as usize + cfg!(feature = "psk") as usize];
-                    let mut n = 0;
-                    if st.packed_input {
-                        add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
+        // The fixed-size messages share one call to the encoder: their id, payload and its length (firmware size).
+        let (sub_id, payload, len): (u8, [u8; 8], usize) = 'fixed: {
+            // Session creation and deletion.
+            if let Some(retry) = st.session_retry.as_mut() {
+                match (st.state, retry.due(now)) {
+                    (SessionState::Creating, Some(true)) => {
+                        // Out of session: another id, with the key exactly when the session's carries it.
+                        let header = MessageHeader { session_id: session_none_for(st.session_id), ..header };
+                        let mtu = ClientRepresentation::mtu_for(st.mtu as usize);
+                        let rep = ClientRepresentation::new(st.key, st.session_id, mtu);
+                        #[cfg(feature = "psk")]
+                        let token =
+                            st.psk.map(|(psk, nonce)| xrce_proto::auth::Token::new(psk, st.key, st.session_id, nonce));
+                        let none = xrce_proto::Property { name: "", value: "" };
+                        // Room for the properties this build can send (firmware size: one without reconnection or PSK).
+                        let mut props = [none; 1 + RECONNECT as usize + cfg!(feature = "psk") as usize];
+                        let mut n = 0;
+                        if st.packed_input {
+                            add_property(&mut props, &mut n, PACK_PROPERTIES[0]);
+                        }
+                        if RECONNECT && st.live.recreating() {
+                            add_property(
+                                &mut props,
+                                &mut n,
+                                xrce_proto::Property { name: RESUME_PROPERTY, value: "1" },
+                            );
+                        }
+                        #[cfg(feature = "psk")]
+                        if let Some(token) = &token {
+                            let auth =
+                                xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
+                            add_property(&mut props, &mut n, auth);
+                        }
+                        let props = props.get(..n).unwrap_or(&[]);
+                        return encode_single_kind(out, &header, id::CREATE_CLIENT, |w| {
+                            rep.encode_with_properties(w, props)
+                        })
+                        .ok();
                     }
-                    if RECONNECT && st.live.recreating() {
-                        add_property(&mut props, &mut n, xrce_proto::Property { name: RESUME_PROPERTY, value: "1" });
+                    (SessionState::Deleting, Some(true)) => {
+                        let req =
+                            BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
+                        let [q0, q1, q2, q3] = req.to_bytes();
+                        break 'fixed (id::DELETE, [q0, q1, q2, q3, 0, 0, 0, 0], 4);
                     }
-                    #[cfg(feature = "psk")]
-                    if let Some(token) = &token {
-                        let auth =
-                            xrce_proto::Property { name: xrce_proto::auth::AUTH_PROPERTY, value: token.as_str() };
-                        add_property(&mut props, &mut n, auth);
+                    (SessionState::Creating, None) if st.live.recreating() => {
+                        // The agent went again before answering: back to the attempts.
+                        st.session_retry = None;
+                        st.state = SessionState::Reconnecting;
+                        st.live.start_attempts(now);
                     }
-                    let props = props.get(..n).unwrap_or(&[]);
-                    return encode_single_kind(out, &header, id::CREATE_CLIENT, |w| {
-                        rep.encode_with_properties(w, props)
-                    })
-                    .ok();
+                    (SessionState::Creating, None) => {
+                        st.state = SessionState::CreateTimedOut;
+                        st.session_retry = None;
+                    }
+                    (SessionState::Deleting, None) => {
+                        st.state = SessionState::Deleted;
+                        st.session_retry = None;
+                    }
+                    (SessionState::Creating | SessionState::Deleting, Some(false)) => {}
+                    _ => st.session_retry = None,
                 }
-                (SessionState::Deleting, Some(true)) => {
-                    let req = BaseObjectRequest { request_id: RequestId::DELETE_SESSION, object_id: ObjectId::CLIENT };
-                    return encode_single_bytes(out, &header, id::DELETE, &req.to_bytes()).ok();
-                }
-                (SessionState::Creating, None) if st.live.recreating() => {
-                    // The agent went again before answering: back to the attempts.
-                    st.session_retry = None;
-                    st.state = SessionState::Reconnecting;
-                    st.live.start_attempts(now);
-                }
-                (SessionState::Creating, None) => {
-                    st.state = SessionState::CreateTimedOut;
-                    st.session_retry = None;
-                }
-                (SessionState::Deleting, None) => {
-                    st.state = SessionState::Deleted;
-                    st.session_retry = None;
-                }
-                (SessionState::Creating | SessionState::Deleting, Some(false)) => {}
-                _ => st.session_retry = None,
             }
-        }
-        if st.state == SessionState::Established && st.live.lost(now) {
-            lose(st, now);
-        }
-        if RECONNECT && st.state == SessionState::Reconnecting {
-            return poll_reconnect(st, now, out);
-        }
-        if st.state != SessionState::Established {
+            if st.state == SessionState::Established && st.live.lost(now) {
+                lose(st, now);
+            }
+            if RECONNECT && st.state == SessionState::Reconnecting {
+                return poll_reconnect(st, now, out);
+            }
+            if st.state != SessionState::Established {
+                return None;
+            }
+            if st.live.probe_due(now) {
+                break 'fixed (id::GET_INFO, liveness_probe().to_le_bytes(), 8);
+            }
+            if let Some(request) = st.info_reply.take() {
+                let reply = BaseObjectReply {
+                    related_request: request,
+                    result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
+                };
+                // An INFO with neither configuration nor activity: the reply and two absent optionals.
+                let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
+                break 'fixed (id::INFO, [r0, r1, r2, r3, r4, r5, 0, 0], 8);
+            }
+            if let Some(n) = st.timers.and_then(|f| f(st, now, &header, out)) {
+                return Some(n);
+            }
+            for (i, s) in self.in_rel.iter_mut().enumerate() {
+                let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
+                let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
+                let [a0, a1, a2, a3, a4] = AckNack::from_bits(s.acknack(), stream_id).to_le_bytes();
+                break 'fixed (id::ACKNACK, [a0, a1, a2, a3, a4, 0, 0, 0], 5);
+            }
+            for (i, s) in st.out_rel.iter_mut().enumerate() {
+                let Some(s) = s.as_mut() else { continue };
+                let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable);
+                if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, now, out) {
+                    return Some(n);
+                }
+                if let Some((first, last)) = s.poll_heartbeat(now) {
+                    let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
+                    let [h0, h1, h2, h3, h4] = hb.to_le_bytes();
+                    break 'fixed (id::HEARTBEAT, [h0, h1, h2, h3, h4, 0, 0, 0], 5);
+                }
+            }
+            for (i, s) in st.out_be.iter_mut().enumerate() {
+                let Some(s) = s.as_mut() else { continue };
+                let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
+                if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, out) {
+                    return Some(n);
+                }
+            }
             return None;
-        }
-        if st.live.probe_due(now) {
-            return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
-        }
-        if let Some(request) = st.info_reply.take() {
-            let reply = BaseObjectReply {
-                related_request: request,
-                result: ResultStatus { status: StatusCode::OK, implementation_status: 1 },
-            };
-            // An INFO with neither configuration nor activity: the reply and two absent optionals.
-            let [r0, r1, r2, r3, r4, r5] = reply.to_bytes();
-            return encode_single_bytes(out, &header, id::INFO, &[r0, r1, r2, r3, r4, r5, 0, 0]).ok();
-        }
-        if let Some(retry) = st.ping_retry.as_mut() {
-            match retry.due(now) {
-                Some(true) => {
-                    let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
-                    let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
-                    return encode_single_bytes(out, &header, id::GET_INFO, &get.to_le_bytes()).ok();
-                }
-                Some(false) => {}
-                None => {
-                    st.ping_retry = None;
-                    st.ping = PingState::Failed;
-                }
-            }
-        }
-        if st.sync_pending {
-            st.sync_pending = false;
-            return encode_single_bytes(out, &header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes()).ok();
-        }
-        for (i, s) in self.in_rel.iter_mut().enumerate() {
-            let Some(s) = s.as_mut().filter(|s| s.ack_pending()) else { continue };
-            let stream_id = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable).0;
-            let ack = AckNack::from_bits(s.acknack(), stream_id);
-            return encode_single_bytes(out, &header, id::ACKNACK, &ack.to_le_bytes()).ok();
-        }
-        for (i, s) in st.out_rel.iter_mut().enumerate() {
-            let Some(s) = s.as_mut() else { continue };
-            let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::Reliable);
-            if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, now, out) {
-                return Some(n);
-            }
-            if let Some((first, last)) = s.poll_heartbeat(now) {
-                let hb = Heartbeat { first_unacked_seq_nr: first, last_unacked_seq_nr: last, stream_id: stream.0 };
-                return encode_single_bytes(out, &header, id::HEARTBEAT, &hb.to_le_bytes()).ok();
-            }
-        }
-        for (i, s) in st.out_be.iter_mut().enumerate() {
-            let Some(s) = s.as_mut() else { continue };
-            let stream = StreamId::from_index(u8::try_from(i).unwrap_or(0), StreamKind::BestEffort);
-            if let Some(n) = s.poll_transmit(st.session_id, st.key, stream, out) {
-                return Some(n);
-            }
-        }
-        None
+        };
+        encode_single_bytes_opt(out, &header, sub_id, payload.get(..len).unwrap_or(&payload))
     }
 
     /// The earliest time something will be due without new input (a retry, a heartbeat), if any.
@@ -881,6 +884,37 @@ impl<'a, const OBE: usize, const ORE: usize, const IBE: usize, const IRE: usize>
             || st.out_rel.iter().flatten().any(OutputReliable::has_pending)
             || st.out_be.iter().flatten().any(|s| !s.is_empty())
     }
+}
+
+type PollTimers<'a, const OBE: usize, const ORE: usize, const IBE: usize> =
+    fn(&mut State<'a, OBE, ORE, IBE>, i64, &MessageHeader, &mut [u8]) -> Option<usize>;
+
+/// The ping's GET_INFO and the sync's TIMESTAMP when due (see `State::timers`).
+fn poll_timers<const OBE: usize, const ORE: usize, const IBE: usize>(
+    st: &mut State<'_, OBE, ORE, IBE>,
+    now: i64,
+    header: &MessageHeader,
+    out: &mut [u8],
+) -> Option<usize> {
+    if let Some(retry) = st.ping_retry.as_mut() {
+        match retry.due(now) {
+            Some(true) => {
+                let request = BaseObjectRequest { request_id: RequestId::PING, object_id: ObjectId::AGENT };
+                let get = GetInfo { request, info_mask: info_mask::ACTIVITY };
+                return encode_single_bytes_opt(out, header, id::GET_INFO, &get.to_le_bytes());
+            }
+            Some(false) => {}
+            None => {
+                st.ping_retry = None;
+                st.ping = PingState::Failed;
+            }
+        }
+    }
+    if st.sync_pending {
+        st.sync_pending = false;
+        return encode_single_bytes_opt(out, header, id::TIMESTAMP, &Time::from_nanos(now).to_le_bytes());
+    }
+    None
 }
 
 /// Every stream back to its start, but the reliable output ones unless `reliable_output` (a session created).
@@ -964,7 +998,7 @@ fn poll_reconnect<const OBE: usize, const ORE: usize, const IBE: usize>(
     }
     if st.live.attempt_due(now) {
         let header = st.header(StreamId::NONE);
-        return encode_single_bytes(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes()).ok();
+        return encode_single_bytes_opt(out, &header, id::GET_INFO, &liveness_probe().to_le_bytes());
     }
     if st.live.take_second_ping() {
         return ping::encode_get_info(RequestId::PING, info_mask::ACTIVITY, out);

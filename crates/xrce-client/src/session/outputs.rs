@@ -142,8 +142,8 @@ impl<'s, 'a> Outputs<'s, 'a> {
                 text_len: text.len(),
                 link,
             };
-            let head = create.head().ok_or(Error::TooLarge)?;
-            out.write_parts(stream, &[&head, text, create.tail().as_bytes()])
+            let (head, tail) = create.parts().ok_or(Error::TooLarge)?;
+            out.write_parts(stream, &[&head, text, tail.as_bytes()])
         })
     }
 

@@ -3,7 +3,7 @@
 
 use crate::error::Result;
 use crate::transport::Transport;
-use xrce_proto::message::{encode_single_bytes, parse};
+use xrce_proto::message::{encode_single_bytes_opt, parse};
 use xrce_proto::submessage::{id, info_mask, FromAgent, GetInfo, Info};
 use xrce_proto::{
     BaseObjectRequest, ClientKey, MessageHeader, ObjectId, RequestId, StreamId, Submessage, SESSION_ID_NONE_WITHOUT_KEY,
@@ -17,7 +17,7 @@ pub const GET_INFO_LEN: usize = 16;
 pub fn encode_get_info(request_id: RequestId, mask: u32, out: &mut [u8]) -> Option<usize> {
     let header = MessageHeader::new(SESSION_ID_NONE_WITHOUT_KEY, StreamId::NONE, 0, ClientKey::INVALID);
     let get = GetInfo { request: BaseObjectRequest { request_id, object_id: ObjectId::AGENT }, info_mask: mask };
-    encode_single_bytes(out, &header, id::GET_INFO, &get.to_le_bytes()).ok()
+    encode_single_bytes_opt(out, &header, id::GET_INFO, &get.to_le_bytes())
 }
 
 /// The INFO carried first in `msg`, if it is one.

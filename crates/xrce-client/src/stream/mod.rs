@@ -18,7 +18,7 @@ pub use output_reliable::{
 };
 
 use xrce_proto::reliable::StoredFragment;
-use xrce_proto::MessageHeader;
+use xrce_proto::{ClientKey, MessageHeader, StreamId};
 
 /// Serial-number arithmetic on 16-bit sequence numbers (spec §9.1), over the engine's
 /// [`SeqNum`](xrce_proto::reliable::SeqNum).
@@ -73,6 +73,27 @@ pub(crate) fn copy_parts(dst: &mut [u8], parts: &[&[u8]]) {
         }
         at += p.len();
     }
+}
+
+/// Writes a stored message to `out`: the header of message `seq_nr`, the stored bytes `body[hs..len]` after
+/// the header's room, then zeros up to `padded`; returns `padded`. Shared by the output streams, whose
+/// `poll_transmit`s are inlined into the session's (firmware size).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn emit(
+    out: &mut [u8],
+    session_id: u8,
+    key: ClientKey,
+    stream: StreamId,
+    seq_nr: u16,
+    body: &[u8],
+    len: usize,
+    padded: usize,
+) -> Option<usize> {
+    let dst = out.get_mut(..padded)?;
+    let hs = MessageHeader::new(session_id, stream, seq_nr, key).encode(dst).ok()?;
+    xrce_proto::bytes::copy(dst.get_mut(hs..len)?, body.get(hs..len)?);
+    dst.get_mut(len..padded)?.fill(0);
+    Some(padded)
 }
 
 /// Whether a stored message is fragmented and, if so, whether it carries the last fragment: the C client looks

@@ -4,7 +4,7 @@
 use super::{copy_parts, parts_total, seq, SUBHEADER};
 use crate::error::{Error, Result};
 use xrce_proto::layout::submessage_offset;
-use xrce_proto::{ClientKey, MessageHeader, StreamId};
+use xrce_proto::{ClientKey, StreamId};
 
 /// A best-effort output stream over a caller's buffer.
 #[derive(Debug)]
@@ -59,14 +59,13 @@ impl<'a> OutputBestEffort<'a> {
         if end > self.capacity {
             return Err(Error::WouldBlock);
         }
-        let from = if self.len == 0 { 0 } else { self.len };
-        if let Some(pad) = self.buf.get_mut(from..start) {
-            pad.fill(0);
+        // The padding after the content (the header's room when empty) and the region zeroed in one go (firmware
+        // size); both fit: `end <= capacity <= buf.len()`.
+        if let Some(zeroed) = self.buf.get_mut(self.len..end) {
+            zeroed.fill(0);
         }
         self.len = end;
-        let region = self.buf.get_mut(start..end).ok_or(Error::TooLarge)?;
-        region.fill(0);
-        Ok(region)
+        self.buf.get_mut(start..end).ok_or(Error::TooLarge)
     }
 
     /// Appends a submessage made of `parts` (its 4-byte header first).
@@ -92,13 +91,8 @@ impl<'a> OutputBestEffort<'a> {
             return None;
         }
         let len = submessage_offset(self.len);
-        let dst = out.get_mut(..len)?;
         let seq_nr = self.last_sent.wrapping_add(1);
-        let header = MessageHeader::new(session_id, stream, seq_nr, key);
-        let hs = header.encode(dst).ok()?;
-        let body = self.buf.get(hs..self.len)?;
-        xrce_proto::bytes::copy(dst.get_mut(hs..self.len)?, body);
-        dst.get_mut(self.len..len)?.fill(0);
+        super::emit(out, session_id, key, stream, seq_nr, self.buf, self.len, len)?;
         self.last_sent = seq_nr;
         self.len = 0;
         self.flush = false;

@@ -143,8 +143,10 @@ impl Sender {
             }
             self.last_acked = acked;
             self.probe.on_progress(now, period);
-            self.resend = self.resend.checked_shr(u32::from(released)).unwrap_or(0);
-            self.deferred = self.deferred.checked_shr(u32::from(released)).unwrap_or(0);
+            // A u32 shift by at most 16 clears a u16 as `checked_shr` does past 15, in less code (firmware size).
+            let shift = u32::from(released.min(16));
+            self.resend = (u32::from(self.resend) >> shift) as u16;
+            self.deferred = (u32::from(self.deferred) >> shift) as u16;
             if self.deferred == 0 {
                 self.deferred_at = Instant::NEVER;
             }

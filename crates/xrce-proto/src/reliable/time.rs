@@ -80,30 +80,37 @@ impl Duration {
 #[inline(never)]
 pub const fn div_floor_pow1000(n: i64, k: u32) -> (i64, u32) {
     let neg = n < 0;
-    let mut q = (if neg { !n } else { n }) as u64;
+    let q = (if neg { !n } else { n }) as u64;
+    // In two 32-bit halves: no 64-bit shifts, which a Cortex-M4 makes library calls (firmware size).
+    let (mut hi, mut lo) = ((q >> 32) as u32, q as u32);
     let mut rem = 0u32;
     let mut scale = 1u32;
     let mut round = 0;
     while round < k && round < 3 {
-        let mut r = 0u32;
-        let mut quotient = 0u64;
-        let mut shift = 64;
-        while shift > 0 {
-            shift -= 16;
-            let part = r << 16 | ((q >> shift) as u32 & 0xFFFF);
-            quotient = quotient << 16 | (part / 1000) as u64;
-            r = part % 1000;
-        }
-        q = quotient;
+        let (a, r) = div1000_digit(0, hi >> 16);
+        let (b, r) = div1000_digit(r, hi & 0xFFFF);
+        let (c, r) = div1000_digit(r, lo >> 16);
+        let (d, r) = div1000_digit(r, lo & 0xFFFF);
+        hi = a << 16 | b;
+        lo = c << 16 | d;
         rem += r * scale;
         scale *= 1000;
         round += 1;
     }
+    let q = ((hi as u64) << 32 | lo as u64) as i64;
     if neg {
-        (!(q as i64), scale - 1 - rem)
+        (!q, scale - 1 - rem)
     } else {
-        (q as i64, rem)
+        (q, rem)
     }
+}
+
+/// One step of a long division by 1000 in 16-bit digits: `(r × 2^16 + digit) / 1000` and its remainder, for
+/// `r < 1000` and `digit < 2^16` (so below `2^26`, and the quotient below `2^16`).
+#[inline(always)]
+const fn div1000_digit(r: u32, digit: u32) -> (u32, u32) {
+    let part = r << 16 | digit;
+    (part / 1000, part % 1000)
 }
 
 /// `n / 1000^k` rounded toward zero (Rust's and C's `/`), `k` in `0..=3`, without a 64-bit division.

@@ -7,8 +7,8 @@
 //! checked (a truncated message is an error), the contents are not.
 
 use super::{flag, id, AckNack, DataPayload, GetInfo, Heartbeat, Submessage, SubmessageHeader, TimestampReply};
-use crate::cdr::{Error, Reader, Result};
-use crate::types::{BaseObjectReply, ResultStatus};
+use crate::cdr::{Endianness, Error, Reader, Result};
+use crate::types::{BaseObjectReply, BaseObjectRequest, ResultStatus};
 
 /// A submessage from an agent as a client sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -63,10 +63,31 @@ impl<'a> FromAgent<'a> {
                     if r.read_bool()? && r.read_u8()? == ACTIVITY_AGENT { Some(r.read_i16()?) } else { None };
                 Self::Info { reply, availability }
             }
-            id::GET_INFO => Self::GetInfo(r.read()?),
+            id::GET_INFO => {
+                // The request and the mask, 4-aligned (no padding), in one read (firmware size).
+                let [r0, r1, o0, o1, m0, m1, m2, m3] = r.read_array_opt().ok_or(Error::Truncated)?;
+                let m = [m0, m1, m2, m3];
+                let info_mask =
+                    if r.endianness() == Endianness::Big { u32::from_be_bytes(m) } else { u32::from_le_bytes(m) };
+                Self::GetInfo(GetInfo { request: BaseObjectRequest::from_bytes([r0, r1, o0, o1]), info_mask })
+            }
             id::DATA => Self::Data(Submessage::data_payload(&mut r, flags)?),
-            id::ACKNACK => Self::AckNack(r.read()?),
-            id::HEARTBEAT => Self::Heartbeat(r.read()?),
+            id::ACKNACK | id::HEARTBEAT => {
+                // One read for the two 5-byte kinds, a u16 (4-aligned: no padding), two bytes and the stream id
+                // (firmware size).
+                let [a0, a1, b0, b1, stream_id] = r.read_array_opt().ok_or(Error::Truncated)?;
+                let big = r.endianness() == Endianness::Big;
+                let u16_of = |b: [u8; 2]| if big { u16::from_be_bytes(b) } else { u16::from_le_bytes(b) };
+                if header.id == id::ACKNACK {
+                    Self::AckNack(AckNack { first_unacked_seq_num: u16_of([a0, a1]), nack_bitmap: [b0, b1], stream_id })
+                } else {
+                    Self::Heartbeat(Heartbeat {
+                        first_unacked_seq_nr: u16_of([a0, a1]),
+                        last_unacked_seq_nr: u16_of([b0, b1]),
+                        stream_id,
+                    })
+                }
+            }
             id::FRAGMENT => Self::Fragment { last: flags & flag::LAST_FRAGMENT != 0, data: r.take_rest() },
             id::TIMESTAMP_REPLY => Self::TimestampReply(r.read()?),
             _ => Self::Other,
@@ -150,5 +171,34 @@ mod tests {
         assert_eq!(info_with_configuration(0x0E, &client), Ok(None));
         assert_eq!(info_with_configuration(0x0E, &client[..14]), Err(Error::Truncated));
         assert_eq!(info_with_configuration(0x0D, &[0; 8]), Err(Error::Truncated));
+    }
+
+    #[test]
+    fn fixed_size_kinds_read_as_the_full_decoder_does() {
+        let payload = [0x12, 0x34, 0x56, 0x78, 0x80];
+        for flags in [0, 1] {
+            for (kind, len) in [
+                (id::ACKNACK, 5),
+                (id::HEARTBEAT, 5),
+                (id::ACKNACK, 4),
+                (id::HEARTBEAT, 3),
+                (id::GET_INFO, 8),
+                (id::GET_INFO, 7),
+            ] {
+                let mut msg = [0u8; 16];
+                msg[8..13].copy_from_slice(&payload);
+                msg[13..16].copy_from_slice(&[0x9A, 0xBC, 0xDE]);
+                let header = SubmessageHeader { id: kind, flags, length: len };
+                let end = 8 + usize::from(len);
+                let full = Submessage::decode(header, &msg, 8, end);
+                match (FromAgent::decode(header, &msg, 8, end), full) {
+                    (Ok(FromAgent::AckNack(a)), Ok(Submessage::AckNack(b))) => assert_eq!(a, b),
+                    (Ok(FromAgent::Heartbeat(a)), Ok(Submessage::Heartbeat(b))) => assert_eq!(a, b),
+                    (Ok(FromAgent::GetInfo(a)), Ok(Submessage::GetInfo(b))) => assert_eq!(a, b),
+                    (Err(a), Err(b)) => assert_eq!(a, b),
+                    other => panic!("{other:?}"),
+                }
+            }
+        }
     }
 }
