@@ -52,12 +52,16 @@ cargo build -q --workspace --all-features --examples
 cargo build -q -p xrce-client-c --no-default-features --profile footprint --target thumbv7em-none-eabihf
 clib=$root/target/thumbv7em-none-eabihf/footprint
 make -s -C firmware/c LIB="$clib" all check
+# The C firmware linked with cross-language LTO as well (the build docs/mcu.md gives for the smallest firmware):
+# it runs the same C scenario below, and its footprint against eProsima's 15,808 B is printed.
+scripts/c-footprint.sh --target thumbv7em-none-eabihf --lto | grep 'client + C publisher'
 echo "build: $(( $(date +%s) - build_start )) s"
 agent=$root/target/release/xrce-agent
 proxy_bin=$root/target/release/xrce-bench
 ex=$root/target/debug/examples
 fw=$root/firmware/target/thumbv7em-none-eabihf/release
 cfw=$clib/firmware-c
+cfw_lto=$root/target/c-lto/thumbv7em-none-eabihf/footprint/firmware-c
 
 work=$(mktemp -d)
 pids=()
@@ -218,17 +222,23 @@ EOF
   grep -q '^Reply received: 2 ' "$work/replier.host" || fail "host request_adder: no reply from the firmware"
   echo "  host: $(grep -c '^Reply received' "$work/replier.host") replies ($((SECONDS - t0)) s)"
 
-  t0=$SECONDS
-  echo "C firmware: 20 HelloWorld -> host subscribe_hello_world, rt/chatter (40) <- host micro_ros_node"
-  hello_subscriber c-app reliable 20
-  qemu_start c-app "$cfw/app.elf" "$pty" 60 20 40 40 50
-  wait_for "$work/c-app.fw" '^ready' 20
-  timeout 30 "$ex/micro_ros_node" --port "$port" --node talker --pub chatter --count 40 --period-ms 30 \
-    >"$work/c-app.pub" 2>&1
-  qemu_verdict c-app
-  wait "$host_pid" 2>/dev/null || true
-  ids_consecutive "$work/c-app.host" 0 19 || fail "host subscriber: not 0..19 from the C firmware"
-  echo "  ($((SECONDS - t0)) s)"
+  local name elf
+  for name in c-app c-app-lto; do
+    elf=$cfw/app.elf
+    [ "$name" = c-app-lto ] && elf=$cfw_lto/app.elf
+    t0=$SECONDS
+    echo "C firmware ($([ "$name" = c-app-lto ] && echo "cross-language LTO" || echo "gcc's link")): 20 HelloWorld ->" \
+      "host subscribe_hello_world, rt/chatter (40) <- host micro_ros_node"
+    hello_subscriber "$name" reliable 20
+    qemu_start "$name" "$elf" "$pty" 60 20 40 40 50
+    wait_for "$work/$name.fw" '^ready' 20
+    timeout 30 "$ex/micro_ros_node" --port "$port" --node talker --pub chatter --count 40 --period-ms 30 \
+      >"$work/$name.pub" 2>&1
+    qemu_verdict "$name"
+    wait "$host_pid" 2>/dev/null || true
+    ids_consecutive "$work/$name.host" 0 19 || fail "host subscriber: not 0..19 from the C firmware ($name)"
+    echo "  ($((SECONDS - t0)) s)"
+  done
   agent_stop
 }
 
